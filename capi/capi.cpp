@@ -1,0 +1,252 @@
+// The C API: validates arguments, calls lib/, and maps every failure to an
+// aacbvh_status plus a message. No exception crosses this file's functions.
+#include <algorithm>
+#include <cstring>
+#include <mutex>
+#include <new>
+#include <string>
+#include <thread>
+
+#include "aacbvh/aacbvh.h"
+#include "bvh_object.h"
+#include "error.h"
+#include "scheduler.h"
+
+struct aacbvh_context {
+    explicit aacbvh_context(unsigned threads) : scheduler(threads) {}
+    aacbvh::Scheduler scheduler;
+};
+
+struct aacbvh_bvh {
+    explicit aacbvh_bvh(aacbvh::Scheduler &s) : object(s) {}
+    aacbvh::BvhObject object;
+    mutable std::mutex error_mutex; // concurrent queries may fail together
+    mutable std::string last_error;
+};
+
+namespace {
+
+using aacbvh::Error;
+
+aacbvh_status fail(const aacbvh_bvh *bvh, aacbvh_status status, const char *message) {
+    if (bvh) {
+        std::lock_guard<std::mutex> lock(bvh->error_mutex);
+        try {
+            bvh->last_error = (message && *message) ? message : aacbvh_status_string(status);
+        } catch (...) {
+            // Out of memory for the message: keep the old one (never empty after a failure).
+            if (bvh->last_error.empty()) bvh->last_error.assign(1, '?');
+        }
+    }
+    return status;
+}
+
+/// Runs `body` as a C entry point: exceptions become statuses and messages.
+template <class F> aacbvh_status guarded(const aacbvh_bvh *bvh, F &&body) {
+    try {
+        body();
+        return AACBVH_OK;
+    } catch (const Error &e) {
+        return fail(bvh, e.status(), e.what());
+    } catch (const std::bad_alloc &) {
+        return fail(bvh, AACBVH_ERROR_OUT_OF_MEMORY, "out of memory");
+    } catch (const std::exception &e) {
+        return fail(bvh, AACBVH_ERROR_INTERNAL, e.what());
+    } catch (...) {
+        return fail(bvh, AACBVH_ERROR_INTERNAL, "unknown internal error");
+    }
+}
+
+#define AACBVH_REQUIRE_HANDLE(bvh)                                                                                 \
+    do {                                                                                                           \
+        if (!(bvh)) return AACBVH_ERROR_INVALID_ARGUMENT;                                                          \
+    } while (0)
+
+#define AACBVH_REQUIRE(bvh, cond, message)                                                                         \
+    do {                                                                                                           \
+        if (!(cond)) return fail((bvh), AACBVH_ERROR_INVALID_ARGUMENT, (message));                                 \
+    } while (0)
+
+} // namespace
+
+extern "C" {
+
+unsigned aacbvh_version_number(void) { return AACBVH_VERSION_NUMBER; }
+const char *aacbvh_version_string(void) { return AACBVH_VERSION_STRING; }
+
+const char *aacbvh_status_string(aacbvh_status status) {
+    switch (status) {
+    case AACBVH_OK: return "AACBVH_OK";
+    case AACBVH_ERROR_INVALID_ARGUMENT: return "AACBVH_ERROR_INVALID_ARGUMENT";
+    case AACBVH_ERROR_INVALID_OPERATION: return "AACBVH_ERROR_INVALID_OPERATION";
+    case AACBVH_ERROR_OUT_OF_MEMORY: return "AACBVH_ERROR_OUT_OF_MEMORY";
+    case AACBVH_ERROR_INVALID_GEOMETRY: return "AACBVH_ERROR_INVALID_GEOMETRY";
+    case AACBVH_ERROR_CANCELLED: return "AACBVH_ERROR_CANCELLED";
+    case AACBVH_ERROR_INTERNAL: return "AACBVH_ERROR_INTERNAL";
+    default: return "unknown aacbvh_status";
+    }
+}
+
+aacbvh_status aacbvh_context_create(uint32_t thread_count, aacbvh_context **out) {
+    if (!out) return AACBVH_ERROR_INVALID_ARGUMENT;
+    *out = nullptr;
+    if (thread_count > 1024) return AACBVH_ERROR_INVALID_ARGUMENT;
+    unsigned threads = thread_count;
+    if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+    try {
+        *out = new aacbvh_context(threads);
+        return AACBVH_OK;
+    } catch (const std::bad_alloc &) {
+        return AACBVH_ERROR_OUT_OF_MEMORY;
+    } catch (...) {
+        return AACBVH_ERROR_INTERNAL; // e.g. threads could not be started
+    }
+}
+
+uint32_t aacbvh_context_thread_count(const aacbvh_context *context) {
+    return context ? context->scheduler.thread_count() : 0;
+}
+
+void aacbvh_context_destroy(aacbvh_context *context) { delete context; }
+
+aacbvh_status aacbvh_bvh_create(aacbvh_context *context, aacbvh_bvh **out) {
+    if (!out) return AACBVH_ERROR_INVALID_ARGUMENT;
+    *out = nullptr;
+    if (!context) return AACBVH_ERROR_INVALID_ARGUMENT;
+    try {
+        *out = new aacbvh_bvh(context->scheduler);
+        return AACBVH_OK;
+    } catch (const std::bad_alloc &) {
+        return AACBVH_ERROR_OUT_OF_MEMORY;
+    } catch (...) {
+        return AACBVH_ERROR_INTERNAL;
+    }
+}
+
+void aacbvh_bvh_destroy(aacbvh_bvh *bvh) { delete bvh; }
+
+const char *aacbvh_bvh_last_error(const aacbvh_bvh *bvh) {
+    if (!bvh) return "invalid handle: the aacbvh_bvh pointer is NULL";
+    std::lock_guard<std::mutex> lock(bvh->error_mutex);
+    return bvh->last_error.c_str();
+}
+
+aacbvh_status aacbvh_bvh_set_param_int(aacbvh_bvh *bvh, aacbvh_param param, int64_t value) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    return guarded(bvh, [&] { bvh->object.params.set_int(param, value); });
+}
+
+aacbvh_status aacbvh_bvh_set_param_float(aacbvh_bvh *bvh, aacbvh_param param, double value) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    return guarded(bvh, [&] { bvh->object.params.set_float(param, value); });
+}
+
+aacbvh_status aacbvh_bvh_get_param_int(const aacbvh_bvh *bvh, aacbvh_param param, int64_t *out) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    AACBVH_REQUIRE(bvh, out, "out is NULL");
+    return guarded(bvh, [&] { *out = bvh->object.params.get_int(param); });
+}
+
+aacbvh_status aacbvh_bvh_get_param_float(const aacbvh_bvh *bvh, aacbvh_param param, double *out) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    AACBVH_REQUIRE(bvh, out, "out is NULL");
+    return guarded(bvh, [&] { *out = bvh->object.params.get_float(param); });
+}
+
+aacbvh_status aacbvh_bvh_set_triangles(aacbvh_bvh *bvh, const float *vertices, size_t vertex_count,
+                                       size_t vertex_stride_bytes, const uint32_t *indices, size_t triangle_count) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    return guarded(bvh, [&] {
+        bvh->object.set_triangles(vertices, vertex_count, vertex_stride_bytes, indices, triangle_count);
+    });
+}
+
+aacbvh_status aacbvh_bvh_set_boxes(aacbvh_bvh *bvh, const float *boxes, size_t box_count, size_t stride_bytes) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    return guarded(bvh, [&] { bvh->object.set_boxes(boxes, box_count, stride_bytes); });
+}
+
+aacbvh_status aacbvh_bvh_set_progress_callback(aacbvh_bvh *bvh, aacbvh_progress_fn fn, void *user_data) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    bvh->object.set_progress(fn, user_data);
+    return AACBVH_OK;
+}
+
+aacbvh_status aacbvh_bvh_build(aacbvh_bvh *bvh) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    return guarded(bvh, [&] { bvh->object.build(); });
+}
+
+aacbvh_status aacbvh_bvh_refit(aacbvh_bvh *bvh) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    return guarded(bvh, [&] { bvh->object.refit(); });
+}
+
+aacbvh_status aacbvh_bvh_get_stats(const aacbvh_bvh *bvh, aacbvh_stats *out) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    AACBVH_REQUIRE(bvh, out, "out is NULL");
+    // The first published struct ended after memory_bytes; older callers get what fits.
+    const size_t minimum = offsetof(aacbvh_stats, memory_bytes) + sizeof(out->memory_bytes);
+    if (out->struct_size < minimum)
+        return fail(bvh, AACBVH_ERROR_INVALID_ARGUMENT,
+                    "stats->struct_size is too small: set it to sizeof(aacbvh_stats) before the call");
+    return guarded(bvh, [&] {
+        aacbvh_stats full;
+        std::memset(&full, 0, sizeof full);
+        bvh->object.stats(full);
+        const size_t n = std::min<size_t>(out->struct_size, sizeof full);
+        const uint32_t size = out->struct_size;
+        std::memcpy(out, &full, n);
+        out->struct_size = size;
+    });
+}
+
+aacbvh_status aacbvh_bvh_get_nodes(const aacbvh_bvh *bvh, size_t first, size_t count, aacbvh_node *out) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    return guarded(bvh, [&] {
+        if (count > 0 && !out) throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "out is NULL");
+        bvh->object.require_tree();
+        const auto &nodes = bvh->object.tree().nodes;
+        if (count > 0 && !out) throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "out is NULL");
+        if (first > nodes.size() || count > nodes.size() - first)
+            throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "node range [" + std::to_string(first) + ", " +
+                                                           std::to_string(first) + " + " + std::to_string(count) +
+                                                           ") is past the node count " + std::to_string(nodes.size()));
+        if (count > 0) std::memcpy(out, nodes.data() + first, count * sizeof(aacbvh_node));
+    });
+}
+
+aacbvh_status aacbvh_bvh_get_primitive_indices(const aacbvh_bvh *bvh, size_t first, size_t count, uint32_t *out) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    return guarded(bvh, [&] {
+        if (count > 0 && !out) throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "out is NULL");
+        bvh->object.require_tree();
+        const auto &ids = bvh->object.tree().prim_ids;
+        if (count > 0 && !out) throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "out is NULL");
+        if (first > ids.size() || count > ids.size() - first)
+            throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "index range [" + std::to_string(first) + ", " +
+                                                           std::to_string(first) + " + " + std::to_string(count) +
+                                                           ") is past the primitive count " + std::to_string(ids.size()));
+        if (count > 0) std::memcpy(out, ids.data() + first, count * sizeof(uint32_t));
+    });
+}
+
+aacbvh_status aacbvh_bvh_intersect(const aacbvh_bvh *bvh, const aacbvh_ray *rays, aacbvh_hit *hits, size_t count) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    return guarded(bvh, [&] {
+        if (count > 0 && (!rays || !hits)) throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "rays or hits is NULL");
+        bvh->object.require_tree();
+        bvh->object.intersect(rays, hits, count);
+    });
+}
+
+aacbvh_status aacbvh_bvh_occluded(const aacbvh_bvh *bvh, const aacbvh_ray *rays, uint8_t *out, size_t count) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    return guarded(bvh, [&] {
+        if (count > 0 && (!rays || !out)) throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "rays or out is NULL");
+        bvh->object.require_tree();
+        bvh->object.occluded(rays, out, count);
+    });
+}
+
+} // extern "C"

@@ -1,0 +1,359 @@
+/*
+ * libaacbvh: bounding volume hierarchies built by Approximate Agglomerative
+ * Clustering (Gu, He, Fatahalian, Blelloch, "Efficient BVH Construction via
+ * Approximate Agglomerative Clustering", HPG 2013).
+ *
+ * How to use (error checks left out):
+ *
+ *     aacbvh_context *ctx;  aacbvh_bvh *bvh;
+ *     aacbvh_context_create(0, &ctx);               // 0 = one thread per core
+ *     aacbvh_bvh_create(ctx, &bvh);
+ *     aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_FAST);
+ *     aacbvh_bvh_set_triangles(bvh, xyz, vertex_count, 3 * sizeof(float),
+ *                              indices, triangle_count);  // buffers are NOT copied
+ *     aacbvh_bvh_build(bvh);
+ *     aacbvh_bvh_intersect(bvh, rays, hits, ray_count);   // closest hits
+ *     ... move vertices in place, then aacbvh_bvh_refit(bvh) each frame ...
+ *     aacbvh_bvh_destroy(bvh);  aacbvh_context_destroy(ctx);
+ *
+ * Every fallible call returns an aacbvh_status; after a failure on a BVH
+ * handle, aacbvh_bvh_last_error() explains it. The library never prints,
+ * exits or aborts, and no C++ exception crosses this interface.
+ *
+ * Thread safety: a handle may be used by one thread at a time, except that
+ * aacbvh_bvh_intersect(), aacbvh_bvh_occluded(), aacbvh_bvh_get_stats(),
+ * aacbvh_bvh_get_nodes() and aacbvh_bvh_get_primitive_indices() may run
+ * concurrently with each other on a built BVH. Different BVH handles are
+ * independent, also when they share a context.
+ *
+ * This header compiles as C99 and as C++. ABI policy: docs/ABI.md.
+ */
+#ifndef AACBVH_AACBVH_H
+#define AACBVH_AACBVH_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdbool.h>
+
+#ifndef AACBVH_API
+#  if defined(_WIN32)
+#    define AACBVH_API
+#  else
+#    define AACBVH_API __attribute__((visibility("default")))
+#  endif
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ===================================================================== */
+/* Version                                                               */
+/* ===================================================================== */
+
+#define AACBVH_VERSION_MAJOR 1
+#define AACBVH_VERSION_MINOR 0
+#define AACBVH_VERSION_PATCH 0
+#define AACBVH_VERSION_NUMBER \
+    (AACBVH_VERSION_MAJOR * 10000 + AACBVH_VERSION_MINOR * 100 + AACBVH_VERSION_PATCH)
+#define AACBVH_VERSION_STRINGIFY_(x) #x
+#define AACBVH_VERSION_STRINGIFY(x) AACBVH_VERSION_STRINGIFY_(x)
+#define AACBVH_VERSION_STRING                         \
+    AACBVH_VERSION_STRINGIFY(AACBVH_VERSION_MAJOR) "." \
+    AACBVH_VERSION_STRINGIFY(AACBVH_VERSION_MINOR) "." \
+    AACBVH_VERSION_STRINGIFY(AACBVH_VERSION_PATCH)
+
+/** The library's version as major * 10000 + minor * 100 + patch, at run time. */
+AACBVH_API unsigned aacbvh_version_number(void);
+/** The library's version as "major.minor.patch", at run time. Static storage. */
+AACBVH_API const char *aacbvh_version_string(void);
+
+/* ===================================================================== */
+/* Status codes (values are pinned forever)                              */
+/* ===================================================================== */
+
+typedef enum aacbvh_status {
+    AACBVH_OK = 0,
+    AACBVH_ERROR_INVALID_ARGUMENT = 1,  /**< NULL pointer, value out of range, bad stride */
+    AACBVH_ERROR_INVALID_OPERATION = 2, /**< call not allowed in this state (e.g. intersect before build) */
+    AACBVH_ERROR_OUT_OF_MEMORY = 3,
+    AACBVH_ERROR_INVALID_GEOMETRY = 4,  /**< NaN/infinite coordinates, index out of range */
+    AACBVH_ERROR_CANCELLED = 5,         /**< the progress callback asked to stop */
+    AACBVH_ERROR_INTERNAL = 6,
+    AACBVH_STATUS_MAX_ENUM = 0x7FFFFFFF
+} aacbvh_status;
+
+/** A short English name of a status ("AACBVH_OK", ...). Static storage; never NULL. */
+AACBVH_API const char *aacbvh_status_string(aacbvh_status status);
+
+/* ===================================================================== */
+/* Handles                                                               */
+/* ===================================================================== */
+
+/** Owns the worker threads that builds and batch queries run on. */
+typedef struct aacbvh_context aacbvh_context;
+/** One BVH: its parameters, a reference to the caller's geometry, and the tree. */
+typedef struct aacbvh_bvh aacbvh_bvh;
+
+/**
+ * Creates a context with `thread_count` threads in all (the calling thread
+ * included); 0 means one per available core.
+ * Returns AACBVH_OK, AACBVH_ERROR_INVALID_ARGUMENT (out is NULL, or
+ * thread_count > 1024) or AACBVH_ERROR_OUT_OF_MEMORY. On failure *out is NULL.
+ */
+AACBVH_API aacbvh_status aacbvh_context_create(uint32_t thread_count, aacbvh_context **out);
+/** Number of threads the context runs builds on (>= 1); 0 for NULL. */
+AACBVH_API uint32_t aacbvh_context_thread_count(const aacbvh_context *context);
+/**
+ * Destroys a context and joins its threads. Accepts NULL. Every BVH created
+ * on it must have been destroyed first.
+ */
+AACBVH_API void aacbvh_context_destroy(aacbvh_context *context);
+
+/**
+ * Creates an empty BVH on `context` (which must outlive it), with default
+ * parameters (AAC-HQ, leaves of at most 4 primitives).
+ * Returns AACBVH_OK, AACBVH_ERROR_INVALID_ARGUMENT (a NULL argument) or
+ * AACBVH_ERROR_OUT_OF_MEMORY. On failure *out is NULL.
+ */
+AACBVH_API aacbvh_status aacbvh_bvh_create(aacbvh_context *context, aacbvh_bvh **out);
+/** Destroys a BVH. Accepts NULL. */
+AACBVH_API void aacbvh_bvh_destroy(aacbvh_bvh *bvh);
+/**
+ * The message of the last failed call on this handle: never NULL, non-empty
+ * after any failure, "" if nothing has failed yet (and "invalid handle" for a
+ * NULL bvh). Valid until the next call on the handle.
+ */
+AACBVH_API const char *aacbvh_bvh_last_error(const aacbvh_bvh *bvh);
+
+/* ===================================================================== */
+/* Parameters                                                            */
+/* ===================================================================== */
+
+/** Builders. Values are pinned forever. */
+typedef enum aacbvh_builder {
+    AACBVH_BUILDER_AAC_HQ = 0,          /**< default: delta 20, c = 20^0.6 / 2, alpha 0.4 */
+    AACBVH_BUILDER_AAC_FAST = 1,        /**< delta 4, c = 4^0.7 / 2, alpha 0.3 */
+    AACBVH_BUILDER_AAC = 2,             /**< AAC with the delta, c, alpha in force */
+    AACBVH_BUILDER_SWEEP_SAH = 3,       /**< top-down full-sweep SAH (MacDonald and Booth 1990) */
+    AACBVH_BUILDER_BINNED_SAH = 4,      /**< top-down binned SAH, 16 bins (Wald 2007) */
+    AACBVH_BUILDER_LOCALLY_ORDERED = 5, /**< exact agglomerative clustering (Walter et al. 2008) */
+    AACBVH_BUILDER_PLOC = 6,            /**< parallel locally-ordered clustering (Meister and Bittner 2018) */
+    AACBVH_BUILDER_MAX_ENUM = 0x7FFFFFFF
+} aacbvh_builder;
+
+/**
+ * Parameter keys. Values are pinned forever. Each key has one type: integer
+ * keys are read and written with the _int calls, float keys with the _float
+ * calls; the other call returns AACBVH_ERROR_INVALID_ARGUMENT. Values out of
+ * range return AACBVH_ERROR_INVALID_ARGUMENT and change nothing. Parameters
+ * take effect at the next build (the costs also at the next get_stats).
+ */
+typedef enum aacbvh_param {
+    /** int, an aacbvh_builder. Choosing AAC_HQ or AAC_FAST also sets delta, c
+     *  and alpha to the paper's values. Default AACBVH_BUILDER_AAC_HQ. */
+    AACBVH_PARAM_BUILDER = 0,
+    /** int >= 2 (at most 1 << 20): ranges of fewer primitives stay unsplit in
+     *  AAC's downward phase. Setting it switches the builder to AACBVH_BUILDER_AAC. */
+    AACBVH_PARAM_AAC_DELTA = 1,
+    /** int in [1, 1 << 16]: most primitives per leaf. Default 4. */
+    AACBVH_PARAM_MAX_LEAF_SIZE = 2,
+    /** float > 0 (finite): c in f(n) = ceil(c * n^alpha). Setting it switches
+     *  the builder to AACBVH_BUILDER_AAC. */
+    AACBVH_PARAM_AAC_C = 3,
+    /** float in (0, 1]: alpha in f(n). c = 1, alpha = 1 is exact agglomerative
+     *  clustering. Setting it switches the builder to AACBVH_BUILDER_AAC. */
+    AACBVH_PARAM_AAC_ALPHA = 4,
+    /** float > 0 (finite): SAH cost of visiting an inner node. Default 1.2. */
+    AACBVH_PARAM_TRAVERSAL_COST = 5,
+    /** float > 0 (finite): SAH cost of one primitive test. Default 1.0. */
+    AACBVH_PARAM_INTERSECTION_COST = 6,
+    /** int in [1, 1024]: PLOC's nearest-neighbour search radius. Default 16. */
+    AACBVH_PARAM_PLOC_RADIUS = 7,
+    /** int 0 or 1: 1 leaves primitives with NaN or infinite coordinates or
+     *  out-of-range indices out of the tree (counted in the stats) instead of
+     *  failing the build with AACBVH_ERROR_INVALID_GEOMETRY. Default 0. */
+    AACBVH_PARAM_SKIP_INVALID_PRIMITIVES = 8,
+    AACBVH_PARAM_MAX_ENUM = 0x7FFFFFFF
+} aacbvh_param;
+
+/** Sets an integer parameter. Returns AACBVH_OK or AACBVH_ERROR_INVALID_ARGUMENT. */
+AACBVH_API aacbvh_status aacbvh_bvh_set_param_int(aacbvh_bvh *bvh, aacbvh_param param, int64_t value);
+/** Sets a float parameter. Returns AACBVH_OK or AACBVH_ERROR_INVALID_ARGUMENT. */
+AACBVH_API aacbvh_status aacbvh_bvh_set_param_float(aacbvh_bvh *bvh, aacbvh_param param, double value);
+/** Reads an integer parameter into *out. Returns AACBVH_OK or AACBVH_ERROR_INVALID_ARGUMENT. */
+AACBVH_API aacbvh_status aacbvh_bvh_get_param_int(const aacbvh_bvh *bvh, aacbvh_param param, int64_t *out);
+/** Reads a float parameter into *out. Returns AACBVH_OK or AACBVH_ERROR_INVALID_ARGUMENT. */
+AACBVH_API aacbvh_status aacbvh_bvh_get_param_float(const aacbvh_bvh *bvh, aacbvh_param param, double *out);
+
+/* ===================================================================== */
+/* Geometry (referenced, never copied)                                   */
+/* ===================================================================== */
+
+/**
+ * Makes the BVH's primitives `triangle_count` triangles. Vertex k's x, y, z
+ * are the three floats at byte offset k * vertex_stride_bytes of `vertices`
+ * (stride >= 12 and a multiple of 4). Triangle i uses vertices indices[3i],
+ * indices[3i+1], indices[3i+2], or 3i, 3i+1, 3i+2 when indices is NULL.
+ *
+ * Lifetime: the library keeps the pointers, not copies. Both buffers must stay
+ * valid and unchanged in size until the geometry is replaced or the BVH is
+ * destroyed; they are read by build, refit, intersect and occluded. Vertex
+ * positions may change between calls (then refit or build again).
+ *
+ * NULL pointers with zero counts make a valid empty scene. The contents are
+ * checked by the build (AACBVH_ERROR_INVALID_GEOMETRY names the first bad
+ * triangle). Afterwards queries return AACBVH_ERROR_INVALID_OPERATION until
+ * the next successful build or refit (refit needs the same primitive count).
+ * Returns AACBVH_OK or AACBVH_ERROR_INVALID_ARGUMENT (NULL with a nonzero
+ * count, bad stride, counts that overflow or exceed 2^32 - 2).
+ */
+AACBVH_API aacbvh_status aacbvh_bvh_set_triangles(aacbvh_bvh *bvh,
+                                                  const float *vertices, size_t vertex_count,
+                                                  size_t vertex_stride_bytes,
+                                                  const uint32_t *indices, size_t triangle_count);
+/**
+ * Makes the BVH's primitives `box_count` axis-aligned boxes: box i is the six
+ * floats min x, y, z, max x, y, z at byte offset i * stride_bytes (stride >= 24
+ * and a multiple of 4). Same lifetime and validity rules as
+ * aacbvh_bvh_set_triangles(); a box with min > max on an axis is invalid.
+ */
+AACBVH_API aacbvh_status aacbvh_bvh_set_boxes(aacbvh_bvh *bvh, const float *boxes,
+                                              size_t box_count, size_t stride_bytes);
+
+/* ===================================================================== */
+/* Build and refit                                                       */
+/* ===================================================================== */
+
+/**
+ * Progress callback: called from the building thread with the fraction done
+ * in [0, 1]; return false to cancel the build.
+ */
+typedef bool (*aacbvh_progress_fn)(void *user_data, double fraction_done);
+
+/** Installs (or, with fn NULL, removes) a progress callback. Returns AACBVH_OK or
+ *  AACBVH_ERROR_INVALID_ARGUMENT (bvh NULL). */
+AACBVH_API aacbvh_status aacbvh_bvh_set_progress_callback(aacbvh_bvh *bvh, aacbvh_progress_fn fn,
+                                                          void *user_data);
+
+/**
+ * Builds the tree over the current geometry with the parameters in force.
+ * Zero primitives give an empty tree (node count 0) whose rays all miss.
+ * Returns AACBVH_OK, AACBVH_ERROR_INVALID_ARGUMENT (bvh NULL),
+ * AACBVH_ERROR_INVALID_GEOMETRY, AACBVH_ERROR_OUT_OF_MEMORY or
+ * AACBVH_ERROR_CANCELLED. On failure the previous tree, if any, is kept as it was.
+ */
+AACBVH_API aacbvh_status aacbvh_bvh_build(aacbvh_bvh *bvh);
+
+/**
+ * Recomputes every node's bounds bottom-up from the current vertex positions,
+ * keeping the topology (time linear in the node count). Needs a built tree
+ * over the same number of primitives. Returns AACBVH_OK,
+ * AACBVH_ERROR_INVALID_ARGUMENT (bvh NULL), AACBVH_ERROR_INVALID_OPERATION
+ * (never built, or the primitive count changed) or
+ * AACBVH_ERROR_INVALID_GEOMETRY (a coordinate became NaN or infinite; the tree
+ * is then kept as it was).
+ */
+AACBVH_API aacbvh_status aacbvh_bvh_refit(aacbvh_bvh *bvh);
+
+/* ===================================================================== */
+/* Queries                                                               */
+/* ===================================================================== */
+
+/** Figures of a built tree. Only ever grows at its end. */
+typedef struct aacbvh_stats {
+    uint32_t struct_size;          /**< set by the caller: sizeof(aacbvh_stats) */
+    uint32_t max_depth;            /**< edges from the root to the deepest leaf */
+    uint64_t node_count;           /**< inner nodes + leaves (2 * leaves - 1, or 0) */
+    uint64_t leaf_count;
+    uint64_t primitive_count;      /**< primitives in the tree */
+    double sah_cost;               /**< (Ct * sum A(inner) + Ci * sum A(leaf) N(leaf)) / A(root), costs in force now; 0 if A(root) = 0 */
+    uint64_t memory_bytes;         /**< every byte the BVH handle holds */
+    uint64_t invalid_primitive_count; /**< primitives left out by AACBVH_PARAM_SKIP_INVALID_PRIMITIVES */
+    uint64_t build_peak_bytes;     /**< most bytes the last build held at once, the finished tree included */
+    double built_sah_cost;         /**< sah_cost right after the last build, before any refit */
+    double build_seconds;          /**< wall time of the last successful build */
+} aacbvh_stats;
+
+/**
+ * Fills *out. The caller sets out->struct_size = sizeof(aacbvh_stats) first;
+ * an older, smaller struct gets the fields that fit. Returns AACBVH_OK,
+ * AACBVH_ERROR_INVALID_ARGUMENT (NULL, or struct_size too small) or
+ * AACBVH_ERROR_INVALID_OPERATION (no valid tree).
+ */
+AACBVH_API aacbvh_status aacbvh_bvh_get_stats(const aacbvh_bvh *bvh, aacbvh_stats *out);
+
+/**
+ * A node of the finished binary tree, 32 bytes. Node 0 is the root. An inner
+ * node has count == 0 and children first and first + 1; a leaf holds the
+ * primitives prim[first .. first + count) of the primitive index array.
+ */
+typedef struct aacbvh_node {
+    float lower[3];
+    float upper[3];
+    uint32_t first;
+    uint32_t count;
+} aacbvh_node;
+
+/** Copies nodes [first, first + count) into out. Returns AACBVH_OK,
+ *  AACBVH_ERROR_INVALID_ARGUMENT (NULL out with count > 0, range past the end)
+ *  or AACBVH_ERROR_INVALID_OPERATION (no valid tree). */
+AACBVH_API aacbvh_status aacbvh_bvh_get_nodes(const aacbvh_bvh *bvh, size_t first, size_t count,
+                                              aacbvh_node *out);
+/** Copies entries [first, first + count) of the primitive index array (length
+ *  = primitive_count) into out. Same returns as aacbvh_bvh_get_nodes(). */
+AACBVH_API aacbvh_status aacbvh_bvh_get_primitive_indices(const aacbvh_bvh *bvh, size_t first,
+                                                          size_t count, uint32_t *out);
+
+/* ===================================================================== */
+/* Rays                                                                  */
+/* ===================================================================== */
+
+#define AACBVH_INVALID_ID 0xFFFFFFFFu
+
+/**
+ * A ray, 32 bytes: points org + t * dir for tmin <= t <= tmax. dir need not be
+ * normalised; t is in units of dir; tmax may be INFINITY. A ray with a NaN
+ * field, or an infinite origin or direction, or a zero direction, misses.
+ */
+typedef struct aacbvh_ray {
+    float org[3];
+    float tmin;
+    float dir[3];
+    float tmax;
+} aacbvh_ray;
+
+/**
+ * A hit, 16 bytes. prim_id is AACBVH_INVALID_ID on a miss (t, u, v are then
+ * INFINITY, 0, 0). The hit point is (1 - u - v) * v0 + u * v1 + v * v2. For
+ * boxes, t is the distance at which the ray enters the box (clamped to tmin)
+ * and u = v = 0.
+ */
+typedef struct aacbvh_hit {
+    float t;
+    float u;
+    float v;
+    uint32_t prim_id;
+} aacbvh_hit;
+
+/**
+ * Closest hit of each of `count` rays. Triangles are two-sided and tested
+ * watertight (Woop, Benthin, Wald 2013). Returns AACBVH_OK,
+ * AACBVH_ERROR_INVALID_ARGUMENT (NULL with count > 0) or
+ * AACBVH_ERROR_INVALID_OPERATION (no valid tree). Thread-safe on a built BVH.
+ */
+AACBVH_API aacbvh_status aacbvh_bvh_intersect(const aacbvh_bvh *bvh, const aacbvh_ray *rays,
+                                              aacbvh_hit *hits, size_t count);
+/**
+ * Any hit of each of `count` rays: out[i] = 1 if something lies within
+ * [tmin, tmax] of ray i, else 0. Same returns and thread safety as
+ * aacbvh_bvh_intersect().
+ */
+AACBVH_API aacbvh_status aacbvh_bvh_occluded(const aacbvh_bvh *bvh, const aacbvh_ray *rays,
+                                             uint8_t *out, size_t count);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* AACBVH_AACBVH_H */

@@ -1,0 +1,66 @@
+// Axis-aligned bounding box in single precision, the unit every builder works on.
+#pragma once
+
+#include <algorithm>
+#include <cfloat>
+
+namespace aacbvh {
+
+struct Box {
+    float lo[3];
+    float hi[3];
+
+    /// An empty box: extending it by anything gives that thing.
+    static Box empty() { return Box{{FLT_MAX, FLT_MAX, FLT_MAX}, {-FLT_MAX, -FLT_MAX, -FLT_MAX}}; }
+
+    void extend(const Box &b) {
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], b.lo[k]);
+            hi[k] = std::max(hi[k], b.hi[k]);
+        }
+    }
+    void extend(const float p[3]) {
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], p[k]);
+            hi[k] = std::max(hi[k], p[k]);
+        }
+    }
+    bool is_empty() const { return lo[0] > hi[0] || lo[1] > hi[1] || lo[2] > hi[2]; }
+    float extent(int k) const { return hi[k] - lo[k]; }
+    /// Halves first so that boxes near FLT_MAX do not overflow.
+    float centroid(int k) const { return 0.5f * lo[k] + 0.5f * hi[k]; }
+
+    /// Half the surface area (the SAH only needs ratios); 0 for an empty box.
+    float half_area() const {
+        if (is_empty()) return 0.0f;
+        const float dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
+        return dx * dy + dy * dz + dz * dx;
+    }
+    /// Full surface area in double precision, for reported SAH costs.
+    double area() const {
+        if (is_empty()) return 0.0;
+        const double dx = double(hi[0]) - lo[0], dy = double(hi[1]) - lo[1], dz = double(hi[2]) - lo[2];
+        return 2.0 * (dx * dy + dy * dz + dz * dx);
+    }
+    bool contains(const Box &b) const {
+        for (int k = 0; k < 3; ++k)
+            if (b.lo[k] < lo[k] || b.hi[k] > hi[k]) return false;
+        return true;
+    }
+};
+
+inline Box unite(const Box &a, const Box &b) {
+    Box r = a;
+    r.extend(b);
+    return r;
+}
+
+/// Half surface area of the union of two boxes: AAC's cluster distance d(A, B).
+inline float union_half_area(const Box &a, const Box &b) {
+    const float dx = std::max(a.hi[0], b.hi[0]) - std::min(a.lo[0], b.lo[0]);
+    const float dy = std::max(a.hi[1], b.hi[1]) - std::min(a.lo[1], b.lo[1]);
+    const float dz = std::max(a.hi[2], b.hi[2]) - std::min(a.lo[2], b.lo[2]);
+    return dx * dy + dy * dz + dz * dx;
+}
+
+} // namespace aacbvh

@@ -1,0 +1,171 @@
+#include "bvh_object.h"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include "binary_tree.h"
+#include "build_context.h"
+#include "build_input.h"
+#include "builders.h"
+#include "error.h"
+#include "flatten.h"
+#include "traversal.h"
+
+namespace aacbvh {
+
+namespace {
+
+[[noreturn]] void reject(const std::string &what) { throw Error(AACBVH_ERROR_INVALID_ARGUMENT, what); }
+
+/// Largest primitive count: ids are 32-bit and AACBVH_INVALID_ID is reserved.
+constexpr size_t kMaxPrimitives = size_t(std::numeric_limits<uint32_t>::max()) - 1;
+
+void check_stride(size_t stride, size_t minimum, const char *what) {
+    if (stride < minimum || stride % 4 != 0)
+        reject(std::string(what) + " stride " + std::to_string(stride) + " must be >= " + std::to_string(minimum) +
+               " and a multiple of 4");
+}
+
+} // namespace
+
+void BvhObject::replace_geometry(const Geometry &g) {
+    geometry_ = g;
+    geometry_set_ = true;
+    valid_ = false; // queries wait for the next build or refit
+}
+
+void BvhObject::set_triangles(const float *vertices, size_t vertex_count, size_t vertex_stride,
+                              const uint32_t *indices, size_t triangle_count) {
+    if (triangle_count > kMaxPrimitives) reject("triangle count " + std::to_string(triangle_count) + " exceeds 2^32 - 2");
+    if (vertex_count > (size_t(1) << 32)) reject("vertex count exceeds 2^32");
+    if (triangle_count > 0 && vertex_count == 0) reject("triangles need vertices: vertex_count is 0");
+    if (!vertices && vertex_count > 0) reject("vertices is NULL but vertex_count is " + std::to_string(vertex_count));
+    if (vertex_count > 0) check_stride(vertex_stride, 3 * sizeof(float), "vertex");
+    if (vertex_count > 0 && vertex_stride > std::numeric_limits<size_t>::max() / vertex_count)
+        reject("vertex_count * vertex_stride overflows");
+    if (!indices && triangle_count > vertex_count / 3)
+        reject("without indices, " + std::to_string(triangle_count) + " triangles need " +
+               std::to_string(3 * uint64_t(triangle_count)) + " vertices, got " + std::to_string(vertex_count));
+    Geometry g;
+    g.kind = GeometryKind::Triangles;
+    g.vertices = vertices;
+    g.vertex_count = vertex_count;
+    g.vertex_stride = vertex_stride;
+    g.indices = indices;
+    g.primitive_count = triangle_count;
+    replace_geometry(g);
+}
+
+void BvhObject::set_boxes(const float *boxes, size_t box_count, size_t stride) {
+    if (box_count > kMaxPrimitives) reject("box count " + std::to_string(box_count) + " exceeds 2^32 - 2");
+    if (!boxes && box_count > 0) reject("boxes is NULL but box_count is " + std::to_string(box_count));
+    if (box_count > 0) check_stride(stride, 6 * sizeof(float), "box");
+    if (box_count > 0 && stride > std::numeric_limits<size_t>::max() / box_count) reject("box_count * stride overflows");
+    Geometry g;
+    g.kind = GeometryKind::Boxes;
+    g.boxes = boxes;
+    g.box_stride = stride;
+    g.primitive_count = box_count;
+    replace_geometry(g);
+}
+
+void BvhObject::build() {
+    const auto start = std::chrono::steady_clock::now();
+    BuildContext ctx(scheduler_, progress_, progress_user_);
+    ctx.report(0.0);
+
+    BuildInput input;
+    compute_build_input(geometry_, params.skip_invalid, ctx, input);
+    ctx.report(0.1);
+
+    Bvh result;
+    if (input.size() > 0) {
+        BinaryTree tree;
+        switch (params.builder) {
+        case AACBVH_BUILDER_AAC_HQ:
+        case AACBVH_BUILDER_AAC_FAST:
+        case AACBVH_BUILDER_AAC:
+            build_aac(input, params.aac, ctx, tree);
+            break;
+        default:
+            throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "builder " + std::to_string(int(params.builder)) +
+                                                           " is not available in this version");
+        }
+        ctx.report(0.8);
+        const uint64_t input_bytes = input.boxes.capacity() * sizeof(Box) + input.prim_ids.capacity() * 4;
+        std::vector<Box>().swap(input.boxes); // flatten needs only the tree
+        flatten(tree, params.max_leaf_size, params.traversal_cost, params.intersection_cost, ctx, result);
+        const uint64_t tree_bytes = tree.boxes.capacity() * sizeof(Box) + tree.children.capacity() * 4 +
+                                    tree.prim_ids.capacity() * 4;
+        build_peak_bytes_ = input_bytes + tree_bytes + result.memory_bytes();
+    } else {
+        build_peak_bytes_ = 0;
+    }
+    ctx.report(1.0);
+
+    // Success: only now does the handle change.
+    bvh_ = std::move(result);
+    invalid_count_ = input.invalid_count;
+    built_kind_ = geometry_.kind;
+    built_primitive_count_ = geometry_.primitive_count;
+    has_topology_ = true;
+    valid_ = true;
+    built_sah_cost_ = measure_tree(bvh_, params.traversal_cost, params.intersection_cost).sah_cost;
+    build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void BvhObject::refit() {
+    if (!has_topology_) throw Error(AACBVH_ERROR_INVALID_OPERATION, "refit needs a built tree: call aacbvh_bvh_build first");
+    if (geometry_.kind != built_kind_ || geometry_.primitive_count != built_primitive_count_)
+        throw Error(AACBVH_ERROR_INVALID_OPERATION,
+                    "refit needs the primitive count of the last build (" + std::to_string(built_primitive_count_) +
+                        "), got " + std::to_string(geometry_.primitive_count) + ": build instead");
+    // Check first so that a bad coordinate leaves the tree as it was.
+    for (uint32_t id : bvh_.prim_ids)
+        if (const char *why = primitive_problem(geometry_, id))
+            throw Error(AACBVH_ERROR_INVALID_GEOMETRY,
+                        std::string(geometry_.kind == GeometryKind::Boxes ? "box " : "triangle ") + std::to_string(id) +
+                            " " + why);
+    refit_tree(bvh_, geometry_);
+    valid_ = true;
+}
+
+void BvhObject::require_tree() const {
+    if (valid_) return;
+    if (!has_topology_) throw Error(AACBVH_ERROR_INVALID_OPERATION, "no tree: call aacbvh_bvh_build first");
+    throw Error(AACBVH_ERROR_INVALID_OPERATION, "the geometry changed since the last build: build or refit first");
+}
+
+void BvhObject::stats(aacbvh_stats &out) const {
+    require_tree();
+    const TreeFigures f = measure_tree(bvh_, params.traversal_cost, params.intersection_cost);
+    out.max_depth = f.max_depth;
+    out.node_count = bvh_.nodes.size();
+    out.leaf_count = f.leaf_count;
+    out.primitive_count = bvh_.prim_ids.size();
+    out.sah_cost = f.sah_cost;
+    out.memory_bytes = sizeof(*this) + bvh_.memory_bytes();
+    out.invalid_primitive_count = invalid_count_;
+    out.build_peak_bytes = build_peak_bytes_;
+    out.built_sah_cost = built_sah_cost_;
+    out.build_seconds = build_seconds_;
+}
+
+void BvhObject::intersect(const aacbvh_ray *rays, aacbvh_hit *hits, size_t count) const {
+    require_tree();
+    scheduler_.parallel_for(0, count, 1024, [&](size_t b, size_t e) {
+        for (size_t i = b; i < e; ++i) intersect_ray(bvh_, geometry_, rays[i], hits[i]);
+    });
+}
+
+void BvhObject::occluded(const aacbvh_ray *rays, uint8_t *out, size_t count) const {
+    require_tree();
+    scheduler_.parallel_for(0, count, 1024, [&](size_t b, size_t e) {
+        for (size_t i = b; i < e; ++i) out[i] = occluded_ray(bvh_, geometry_, rays[i]) ? 1 : 0;
+    });
+}
+
+} // namespace aacbvh

@@ -1,0 +1,61 @@
+// What an aacbvh_bvh handle holds: parameters, a view of the caller's
+// geometry, and the finished tree; builds into temporaries and swaps them in
+// only on success, so a failed build keeps the previous tree.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "aacbvh/aacbvh.h"
+#include "bvh.h"
+#include "geometry.h"
+#include "params.h"
+#include "scheduler.h"
+
+namespace aacbvh {
+
+class BvhObject {
+public:
+    explicit BvhObject(Scheduler &scheduler) : scheduler_(scheduler) {}
+
+    Params params;
+
+    /// Argument checks only; contents are checked by build(). Throws Error.
+    void set_triangles(const float *vertices, size_t vertex_count, size_t vertex_stride, const uint32_t *indices,
+                       size_t triangle_count);
+    void set_boxes(const float *boxes, size_t box_count, size_t stride);
+    void set_progress(aacbvh_progress_fn fn, void *user) { progress_ = fn; progress_user_ = user; }
+
+    void build();
+    void refit();
+
+    /// Throws Error(AACBVH_ERROR_INVALID_OPERATION) unless a valid tree exists.
+    void require_tree() const;
+    const Bvh &tree() const { return bvh_; }
+    const Geometry &geometry() const { return geometry_; }
+    Scheduler &scheduler() const { return scheduler_; }
+
+    void stats(aacbvh_stats &out) const;
+    void intersect(const aacbvh_ray *rays, aacbvh_hit *hits, size_t count) const;
+    void occluded(const aacbvh_ray *rays, uint8_t *out, size_t count) const;
+
+private:
+    void replace_geometry(const Geometry &g);
+
+    Scheduler &scheduler_;
+    Geometry geometry_;
+    bool geometry_set_ = false;
+    Bvh bvh_;
+    bool valid_ = false;        ///< bvh_ matches geometry_ (built or refitted since the last set)
+    bool has_topology_ = false; ///< bvh_ holds a tree (possibly stale)
+    GeometryKind built_kind_ = GeometryKind::None;
+    size_t built_primitive_count_ = 0; ///< geometry's primitive count at the last build
+    uint64_t invalid_count_ = 0;
+    uint64_t build_peak_bytes_ = 0;
+    double built_sah_cost_ = 0.0;
+    double build_seconds_ = 0.0;
+    aacbvh_progress_fn progress_ = nullptr;
+    void *progress_user_ = nullptr;
+};
+
+} // namespace aacbvh

@@ -1,0 +1,48 @@
+// Morton (Z-order) codes of primitive centroids, 21 bits per axis (63 bits in
+// all) so that large scenes do not tie (the paper used 30 bits).
+#pragma once
+
+#include <cstdint>
+
+#include "box.h"
+
+namespace aacbvh {
+
+/// Spreads the low 21 bits of x so that bit i lands on bit 3i.
+inline uint64_t spread_bits_21(uint64_t x) {
+    x &= 0x1FFFFF;
+    x = (x | x << 32) & 0x1F00000000FFFFull;
+    x = (x | x << 16) & 0x1F0000FF0000FFull;
+    x = (x | x << 8) & 0x100F00F00F00F00Full;
+    x = (x | x << 4) & 0x10C30C30C30C30C3ull;
+    x = (x | x << 2) & 0x1249249249249249ull;
+    return x;
+}
+
+/// Maps points of `bounds` onto the 2^21 grid per axis. Computed in double so
+/// that bounds spanning most of the float range do not overflow.
+class MortonQuantizer {
+public:
+    explicit MortonQuantizer(const Box &bounds) {
+        for (int k = 0; k < 3; ++k) {
+            origin_[k] = bounds.lo[k];
+            const double extent = double(bounds.hi[k]) - double(bounds.lo[k]);
+            scale_[k] = extent > 0.0 ? double(kCells) / extent : 0.0;
+        }
+    }
+    uint64_t code(const float p[3]) const {
+        uint64_t q[3];
+        for (int k = 0; k < 3; ++k) {
+            const double cell = (double(p[k]) - origin_[k]) * scale_[k];
+            q[k] = cell <= 0.0 ? 0 : cell >= double(kCells - 1) ? kCells - 1 : uint64_t(cell);
+        }
+        return spread_bits_21(q[0]) << 2 | spread_bits_21(q[1]) << 1 | spread_bits_21(q[2]);
+    }
+
+private:
+    static constexpr uint64_t kCells = uint64_t(1) << 21;
+    double origin_[3];
+    double scale_[3];
+};
+
+} // namespace aacbvh

@@ -1,0 +1,134 @@
+#include "params.h"
+
+#include <cmath>
+#include <string>
+
+#include "error.h"
+
+namespace aacbvh {
+
+namespace {
+
+[[noreturn]] void reject(const std::string &what) { throw Error(AACBVH_ERROR_INVALID_ARGUMENT, what); }
+
+bool is_int_key(aacbvh_param key) {
+    switch (key) {
+    case AACBVH_PARAM_BUILDER:
+    case AACBVH_PARAM_AAC_DELTA:
+    case AACBVH_PARAM_MAX_LEAF_SIZE:
+    case AACBVH_PARAM_PLOC_RADIUS:
+    case AACBVH_PARAM_SKIP_INVALID_PRIMITIVES:
+        return true;
+    default:
+        return false;
+    }
+}
+
+bool is_float_key(aacbvh_param key) {
+    switch (key) {
+    case AACBVH_PARAM_AAC_C:
+    case AACBVH_PARAM_AAC_ALPHA:
+    case AACBVH_PARAM_TRAVERSAL_COST:
+    case AACBVH_PARAM_INTERSECTION_COST:
+        return true;
+    default:
+        return false;
+    }
+}
+
+void check_key_type(aacbvh_param key, bool want_int) {
+    if (is_int_key(key) == want_int && (want_int || is_float_key(key))) return;
+    if (is_int_key(key) || is_float_key(key))
+        reject("parameter " + std::to_string(int(key)) + " is " + (want_int ? "a float" : "an integer") +
+               " parameter; use aacbvh_bvh_" + (want_int ? "set/get_param_float" : "set/get_param_int"));
+    reject("unknown parameter " + std::to_string(int64_t(key)));
+}
+
+} // namespace
+
+AacConfig Params::hq_preset() { return AacConfig{20, std::pow(20.0, 0.6) / 2.0, 0.4}; }
+AacConfig Params::fast_preset() { return AacConfig{4, std::pow(4.0, 0.7) / 2.0, 0.3}; }
+
+void Params::set_int(aacbvh_param key, int64_t value) {
+    check_key_type(key, true);
+    switch (key) {
+    case AACBVH_PARAM_BUILDER:
+        if (value < AACBVH_BUILDER_AAC_HQ || value > AACBVH_BUILDER_PLOC)
+            reject("builder " + std::to_string(value) + " is not an aacbvh_builder value (0 to 6)");
+        builder = aacbvh_builder(value);
+        if (builder == AACBVH_BUILDER_AAC_HQ) aac = hq_preset();
+        if (builder == AACBVH_BUILDER_AAC_FAST) aac = fast_preset();
+        break;
+    case AACBVH_PARAM_AAC_DELTA:
+        if (value < 2 || value > (1 << 20)) reject("AAC delta must be in [2, 2^20], got " + std::to_string(value));
+        aac.delta = uint32_t(value);
+        builder = AACBVH_BUILDER_AAC;
+        break;
+    case AACBVH_PARAM_MAX_LEAF_SIZE:
+        if (value < 1 || value > (1 << 16)) reject("max leaf size must be in [1, 65536], got " + std::to_string(value));
+        max_leaf_size = uint32_t(value);
+        break;
+    case AACBVH_PARAM_PLOC_RADIUS:
+        if (value < 1 || value > 1024) reject("PLOC radius must be in [1, 1024], got " + std::to_string(value));
+        ploc_radius = uint32_t(value);
+        break;
+    case AACBVH_PARAM_SKIP_INVALID_PRIMITIVES:
+        if (value != 0 && value != 1) reject("skip-invalid must be 0 or 1, got " + std::to_string(value));
+        skip_invalid = value == 1;
+        break;
+    default:
+        reject("unknown parameter");
+    }
+}
+
+void Params::set_float(aacbvh_param key, double value) {
+    check_key_type(key, false);
+    if (!std::isfinite(value)) reject("parameter value must be finite");
+    switch (key) {
+    case AACBVH_PARAM_AAC_C:
+        if (!(value > 0.0)) reject("AAC c must be > 0, got " + std::to_string(value));
+        aac.c = value;
+        builder = AACBVH_BUILDER_AAC;
+        break;
+    case AACBVH_PARAM_AAC_ALPHA:
+        if (!(value > 0.0 && value <= 1.0)) reject("AAC alpha must be in (0, 1], got " + std::to_string(value));
+        aac.alpha = value;
+        builder = AACBVH_BUILDER_AAC;
+        break;
+    case AACBVH_PARAM_TRAVERSAL_COST:
+        if (!(value > 0.0)) reject("traversal cost must be > 0, got " + std::to_string(value));
+        traversal_cost = value;
+        break;
+    case AACBVH_PARAM_INTERSECTION_COST:
+        if (!(value > 0.0)) reject("intersection cost must be > 0, got " + std::to_string(value));
+        intersection_cost = value;
+        break;
+    default:
+        reject("unknown parameter");
+    }
+}
+
+int64_t Params::get_int(aacbvh_param key) const {
+    check_key_type(key, true);
+    switch (key) {
+    case AACBVH_PARAM_BUILDER: return builder;
+    case AACBVH_PARAM_AAC_DELTA: return aac.delta;
+    case AACBVH_PARAM_MAX_LEAF_SIZE: return max_leaf_size;
+    case AACBVH_PARAM_PLOC_RADIUS: return ploc_radius;
+    case AACBVH_PARAM_SKIP_INVALID_PRIMITIVES: return skip_invalid ? 1 : 0;
+    default: reject("unknown parameter");
+    }
+}
+
+double Params::get_float(aacbvh_param key) const {
+    check_key_type(key, false);
+    switch (key) {
+    case AACBVH_PARAM_AAC_C: return aac.c;
+    case AACBVH_PARAM_AAC_ALPHA: return aac.alpha;
+    case AACBVH_PARAM_TRAVERSAL_COST: return traversal_cost;
+    case AACBVH_PARAM_INTERSECTION_COST: return intersection_cost;
+    default: reject("unknown parameter");
+    }
+}
+
+} // namespace aacbvh

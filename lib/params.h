@@ -1,0 +1,33 @@
+// A BVH handle's parameters with their defaults and valid ranges.
+#pragma once
+
+#include <cstdint>
+
+#include "aacbvh/aacbvh.h"
+#include "builders.h"
+
+namespace aacbvh {
+
+struct Params {
+    aacbvh_builder builder = AACBVH_BUILDER_AAC_HQ;
+    AacConfig aac = hq_preset();
+    uint32_t max_leaf_size = 4;
+    double traversal_cost = 1.2;
+    double intersection_cost = 1.0;
+    uint32_t ploc_radius = 16;
+    bool skip_invalid = false;
+
+    /// The paper's presets: HQ delta 20, f(n) = (20^0.6 / 2) n^0.4;
+    /// Fast delta 4, f(n) = (4^0.7 / 2) n^0.3.
+    static AacConfig hq_preset();
+    static AacConfig fast_preset();
+
+    /// Throw Error(AACBVH_ERROR_INVALID_ARGUMENT) for unknown keys, a key of the
+    /// other type, or values out of range; then nothing changes.
+    void set_int(aacbvh_param key, int64_t value);
+    void set_float(aacbvh_param key, double value);
+    int64_t get_int(aacbvh_param key) const;
+    double get_float(aacbvh_param key) const;
+};
+
+} // namespace aacbvh

@@ -1,0 +1,15 @@
+// LSD radix sort of (64-bit key, 32-bit value) pairs; stable, so equal keys
+// keep their input order (which makes builds deterministic).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace aacbvh {
+
+/// Sorts keys ascending, moving values along. Only the low `key_bits` bits of
+/// the keys are looked at. Digits on which every key agrees are skipped.
+void radix_sort_pairs(std::vector<uint64_t> &keys, std::vector<uint32_t> &values, unsigned key_bits = 64);
+
+} // namespace aacbvh
