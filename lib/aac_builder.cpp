@@ -21,7 +21,9 @@
 namespace aacbvh {
 
 uint32_t aac_cluster_target(const AacConfig &config, uint32_t n) {
-    const double f = std::ceil(config.c * std::pow(double(n), config.alpha));
+    // The presets make f(delta) an integer (delta / 2); pow() lands a hair above
+    // it (10.000000000000002 for HQ), so round off that noise before the ceil.
+    const double f = std::ceil(config.c * std::pow(double(n), config.alpha) * (1.0 - 1e-12));
     if (!(f >= 1.0)) return 1;
     return f >= double(n) ? n : uint32_t(f);
 }
@@ -35,7 +37,11 @@ class AacRecursion {
 public:
     AacRecursion(const AacConfig &config, BuildContext &ctx, BinaryTree &tree, const uint64_t *codes, float scale)
         : config_(config), ctx_(ctx), tree_(tree), codes_(codes), scale_(scale),
-          n_(tree.leaf_count()), clusters_(n_), free_ids_(n_) {}
+          n_(tree.leaf_count()), clusters_(n_), free_ids_(n_) {
+        // f(n) of the many small nodes comes from a table instead of pow().
+        small_targets_.resize(std::min<uint32_t>(n_, kTargetTableSize) + 1);
+        for (uint32_t i = 0; i < small_targets_.size(); ++i) small_targets_[i] = aac_cluster_target(config_, i);
+    }
 
     void run() {
         build(0, n_, true);
@@ -54,7 +60,7 @@ private:
             }
             thread_local CombineScratch scratch;
             return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n,
-                                    root ? 1 : aac_cluster_target(config_, config_.delta), scale_, scratch);
+                                    root ? 1 : target(config_.delta), scale_, scratch);
         }
         const uint32_t m = split_point(b, e);
         uint32_t left = 0, right = 0;
@@ -70,7 +76,7 @@ private:
         std::copy(&free_ids_[m], &free_ids_[m] + right, &free_ids_[b + left]);
         thread_local CombineScratch scratch;
         return combine_clusters(tree_, &clusters_[b], &free_ids_[b], left + right,
-                                root ? 1 : aac_cluster_target(config_, n), scale_, scratch);
+                                root ? 1 : target(n), scale_, scratch);
     }
 
     /// The radix-tree split: first index whose code has the highest differing bit set.
@@ -86,11 +92,17 @@ private:
     const AacConfig &config_;
     BuildContext &ctx_;
     BinaryTree &tree_;
+    uint32_t target(uint32_t n) const {
+        return n < small_targets_.size() ? small_targets_[n] : aac_cluster_target(config_, n);
+    }
+
+    static constexpr uint32_t kTargetTableSize = 4096;
     const uint64_t *codes_;
     float scale_;
     uint32_t n_;
-    std::vector<uint32_t> clusters_;
-    std::vector<uint32_t> free_ids_;
+    Array<uint32_t> clusters_;
+    Array<uint32_t> free_ids_;
+    std::vector<uint32_t> small_targets_;
 };
 
 /// 1 / largest extent of the scene: distances are computed on boxes of about
@@ -106,8 +118,8 @@ float distance_scale(const Box &bounds) {
 
 void build_aac(const BuildInput &input, const AacConfig &config, BuildContext &ctx, BinaryTree &out) {
     const uint32_t n = uint32_t(input.size());
-    std::vector<uint64_t> codes(n);
-    std::vector<uint32_t> order(n);
+    Array<uint64_t> codes(n);
+    Array<uint32_t> order(n);
     const MortonQuantizer quantizer(input.centroid_bounds);
     ctx.scheduler().parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i) {
@@ -127,7 +139,7 @@ void build_aac(const BuildInput &input, const AacConfig &config, BuildContext &c
             out.prim_ids[i] = input.prim_ids[order[i]];
         }
     });
-    std::vector<uint32_t>().swap(order);
+    Array<uint32_t>().swap(order);
     if (n == 1) {
         out.root = 0;
         return;

@@ -7,15 +7,16 @@
 #include <vector>
 
 #include "box.h"
+#include "memory.h"
 
 namespace aacbvh {
 
 struct BinaryTree {
     /// Nodes [0, n) are leaves: node i holds primitive prim_ids[i]. Inner nodes
     /// are any ids in [n, 2n); ids need not be dense or ordered.
-    std::vector<Box> boxes;              ///< 2n entries (one may stay unused)
-    std::vector<uint32_t> children;      ///< inner node k: children[2(k-n)], children[2(k-n)+1]
-    std::vector<uint32_t> prim_ids;      ///< n entries
+    Array<Box> boxes;                    ///< 2n entries (one may stay unused)
+    Array<uint32_t> children;            ///< inner node k: children[2(k-n)], children[2(k-n)+1]
+    Array<uint32_t> prim_ids;            ///< n entries
     uint32_t root = 0;
 
     uint32_t leaf_count() const { return uint32_t(prim_ids.size()); }

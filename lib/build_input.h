@@ -8,12 +8,13 @@
 #include "box.h"
 #include "build_context.h"
 #include "geometry.h"
+#include "memory.h"
 
 namespace aacbvh {
 
 struct BuildInput {
-    std::vector<Box> boxes;          ///< boxes[i] bounds primitive prim_ids[i]
-    std::vector<uint32_t> prim_ids;  ///< the caller's primitive index of entry i
+    Array<Box> boxes;                ///< boxes[i] bounds primitive prim_ids[i]
+    Array<uint32_t> prim_ids;        ///< the caller's primitive index of entry i
     Box bounds = Box::empty();       ///< union of all boxes
     Box centroid_bounds = Box::empty(); ///< bounds of the boxes' centres
     uint64_t invalid_count = 0;      ///< primitives left out as invalid

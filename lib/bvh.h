@@ -6,13 +6,14 @@
 #include <vector>
 
 #include "geometry.h"
+#include "memory.h"
 #include "node.h"
 
 namespace aacbvh {
 
 struct Bvh {
-    std::vector<Node> nodes;          ///< nodes[0] is the root; empty for an empty scene
-    std::vector<uint32_t> prim_ids;   ///< leaf slots -> caller's primitive index
+    Array<Node> nodes;                ///< nodes[0] is the root; empty for an empty scene
+    Array<uint32_t> prim_ids;         ///< leaf slots -> caller's primitive index
 
     bool empty() const { return nodes.empty(); }
     size_t memory_bytes() const {

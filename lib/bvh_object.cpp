@@ -96,7 +96,7 @@ void BvhObject::build() {
         }
         ctx.report(0.8);
         const uint64_t input_bytes = input.boxes.capacity() * sizeof(Box) + input.prim_ids.capacity() * 4;
-        std::vector<Box>().swap(input.boxes); // flatten needs only the tree
+        Array<Box>().swap(input.boxes); // flatten needs only the tree
         flatten(tree, params.max_leaf_size, params.traversal_cost, params.intersection_cost, ctx, result);
         const uint64_t tree_bytes = tree.boxes.capacity() * sizeof(Box) + tree.children.capacity() * 4 +
                                     tree.prim_ids.capacity() * 4;

@@ -25,7 +25,8 @@ void flatten(const BinaryTree &tree, uint32_t max_leaf_size, double traversal_co
     if (n == 0) return;
 
     // Bottom-up: post-order with an explicit stack (trees may be as deep as n).
-    std::vector<Choice> choice(tree.boxes.size());
+    Array<Choice> choice(tree.boxes.size());
+    for (uint32_t id = 0; id < tree.boxes.size(); ++id) choice[id].prims = 0; // 0 = not visited yet
     {
         std::vector<uint32_t> stack;
         stack.push_back(tree.root);

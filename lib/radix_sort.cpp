@@ -4,7 +4,7 @@
 
 namespace aacbvh {
 
-void radix_sort_pairs(std::vector<uint64_t> &keys, std::vector<uint32_t> &values, unsigned key_bits) {
+void radix_sort_pairs(Array<uint64_t> &keys, Array<uint32_t> &values, unsigned key_bits) {
     constexpr unsigned kDigitBits = 11;
     constexpr size_t kBuckets = size_t(1) << kDigitBits;
     const size_t n = keys.size();
@@ -18,8 +18,8 @@ void radix_sort_pairs(std::vector<uint64_t> &keys, std::vector<uint32_t> &values
         for (unsigned p = 0; p < passes; ++p) ++histograms[p * kBuckets + ((k >> (p * kDigitBits)) & (kBuckets - 1))];
     }
 
-    std::vector<uint64_t> keys_tmp(n);
-    std::vector<uint32_t> values_tmp(n);
+    Array<uint64_t> keys_tmp(n);
+    Array<uint32_t> values_tmp(n);
     for (unsigned p = 0; p < passes; ++p) {
         uint32_t *hist = &histograms[p * kBuckets];
         const unsigned shift = p * kDigitBits;

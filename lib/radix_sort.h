@@ -4,12 +4,12 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <vector>
+#include "memory.h"
 
 namespace aacbvh {
 
 /// Sorts keys ascending, moving values along. Only the low `key_bits` bits of
 /// the keys are looked at. Digits on which every key agrees are skipped.
-void radix_sort_pairs(std::vector<uint64_t> &keys, std::vector<uint32_t> &values, unsigned key_bits = 64);
+void radix_sort_pairs(Array<uint64_t> &keys, Array<uint32_t> &values, unsigned key_bits = 64);
 
 } // namespace aacbvh
