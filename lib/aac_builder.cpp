@@ -60,8 +60,9 @@ private:
             }
             thread_local CombineScratch scratch;
             return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n,
-                                    root ? 1 : target(config_.delta), scale_, scratch);
+                                    root ? 1 : target(config_.delta), scale_, scratch, ctx_);
         }
+        if (n >= 256) ctx_.poll();
         const uint32_t m = split_point(b, e);
         uint32_t left = 0, right = 0;
         if (n >= kParallelGrain) {
@@ -76,7 +77,7 @@ private:
         std::copy(&free_ids_[m], &free_ids_[m] + right, &free_ids_[b + left]);
         thread_local CombineScratch scratch;
         return combine_clusters(tree_, &clusters_[b], &free_ids_[b], left + right,
-                                root ? 1 : target(n), scale_, scratch);
+                                root ? 1 : target(n), scale_, scratch, ctx_);
     }
 
     /// The radix-tree split: first index whose code has the highest differing bit set.

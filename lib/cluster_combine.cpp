@@ -24,7 +24,7 @@ constexpr uint32_t kMatrixLimit = 2048;
 /// each distance is computed when needed.
 template <bool kMatrix>
 uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target, float scale,
-                 CombineScratch &s) {
+                 CombineScratch &s, BuildContext &ctx) {
     const uint32_t stride = count;
     Box *box = s.boxes.data();
     float *dist = kMatrix ? s.distances.data() : nullptr;
@@ -63,6 +63,7 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
     uint32_t live = count;
     uint32_t used = 0;
     while (live > target) {
+        if ((live & 1023) == 0) ctx.poll();
         uint32_t a = 0;
         for (uint32_t i = 1; i < live; ++i)
             if (nd[i] < nd[a]) a = i;
@@ -124,7 +125,7 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
 } // namespace
 
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                          float scale, CombineScratch &scratch) {
+                          float scale, CombineScratch &scratch, BuildContext &ctx) {
     if (target < 1) target = 1;
     if (count <= target) return count;
     if (scratch.boxes.size() < count) {
@@ -134,9 +135,9 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
     }
     if (count <= kMatrixLimit) {
         if (scratch.distances.size() < size_t(count) * count) scratch.distances.resize(size_t(count) * count);
-        return combine<true>(tree, ids, free_ids, count, target, scale, scratch);
+        return combine<true>(tree, ids, free_ids, count, target, scale, scratch, ctx);
     }
-    return combine<false>(tree, ids, free_ids, count, target, scale, scratch);
+    return combine<false>(tree, ids, free_ids, count, target, scale, scratch, ctx);
 }
 
 } // namespace aacbvh

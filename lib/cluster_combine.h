@@ -8,6 +8,7 @@
 
 #include "binary_tree.h"
 #include "box.h"
+#include "build_context.h"
 
 namespace aacbvh {
 
@@ -24,8 +25,9 @@ struct CombineScratch {
 /// taken in order from free_ids[0, count). On return ids[0, result) are the
 /// clusters left and free_ids[0, result) the ids not used. Distances are half
 /// surface areas scaled by `scale` (keeps huge and tiny scenes in float range).
-/// Ties go to the lowest slot, so results are deterministic.
+/// Ties go to the lowest slot, so results are deterministic. Long combines
+/// (thousands of clusters) poll `ctx` for a cancel.
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                          float scale, CombineScratch &scratch);
+                          float scale, CombineScratch &scratch, BuildContext &ctx);
 
 } // namespace aacbvh
