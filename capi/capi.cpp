@@ -126,7 +126,7 @@ aacbvh_status aacbvh_bvh_create(aacbvh_context *context, aacbvh_bvh **out) {
 void aacbvh_bvh_destroy(aacbvh_bvh *bvh) { delete bvh; }
 
 const char *aacbvh_bvh_last_error(const aacbvh_bvh *bvh) {
-    if (!bvh) return "invalid handle: the aacbvh_bvh pointer is NULL";
+    if (!bvh) return "invalid handle";
     std::lock_guard<std::mutex> lock(bvh->error_mutex);
     return bvh->last_error.c_str();
 }

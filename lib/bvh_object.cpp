@@ -90,9 +90,20 @@ void BvhObject::build() {
         case AACBVH_BUILDER_AAC:
             build_aac(input, params.aac, ctx, tree);
             break;
+        case AACBVH_BUILDER_SWEEP_SAH:
+            build_sweep_sah(input, params.traversal_cost, params.intersection_cost, ctx, tree);
+            break;
+        case AACBVH_BUILDER_BINNED_SAH:
+            build_binned_sah(input, params.traversal_cost, params.intersection_cost, ctx, tree);
+            break;
+        case AACBVH_BUILDER_LOCALLY_ORDERED:
+            build_locally_ordered(input, ctx, tree);
+            break;
+        case AACBVH_BUILDER_PLOC:
+            build_ploc(input, params.ploc_radius, ctx, tree);
+            break;
         default:
-            throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "builder " + std::to_string(int(params.builder)) +
-                                                           " is not available in this version");
+            throw Error(AACBVH_ERROR_INTERNAL, "unknown builder " + std::to_string(int(params.builder)));
         }
         ctx.report(0.8);
         const uint64_t input_bytes = input.boxes.capacity() * sizeof(Box) + input.prim_ids.capacity() * 4;

@@ -66,12 +66,7 @@ public:
             b();
             return;
         }
-        using FA = std::remove_reference_t<A>;
-        using FB = std::remove_reference_t<B>;
-        detail::Task tb;
-        tb.fn = &detail::invoke_erased<FB>;
-        tb.ctx = detail::erase(b);
-        fork_join_impl(tb, &detail::invoke_erased<FA>, detail::erase(a));
+        fork_join_parallel(a, b);
     }
 
     /// Calls body(begin_i, end_i) over disjoint chunks covering [begin, end),
@@ -104,6 +99,19 @@ public:
     }
 
 private:
+    // Kept out of line so that fork_join itself stays small enough to inline:
+    // on one thread it is then just a(); b(); in the caller.
+    template <class A, class B>
+#if defined(__GNUC__)
+    __attribute__((noinline))
+#endif
+    void fork_join_parallel(A &a, B &b) {
+        detail::Task tb;
+        tb.fn = &detail::invoke_erased<B>;
+        tb.ctx = detail::erase(b);
+        fork_join_impl(tb, &detail::invoke_erased<A>, detail::erase(a));
+    }
+
     template <class F> void for_chunks(size_t begin, size_t end, size_t grain, F &body) {
         size_t chunks = (end - begin - 1) / grain + 1;
         if (chunks <= 1) {

@@ -1,0 +1,94 @@
+// The benchmark's results and their outputs: a console table, CSV, JSON, an SVG
+// plot (build time against ray cost), a Markdown report (docs/EVALUATION.md),
+// and small validators of the written files for --self-check.
+#pragma once
+
+#include "rays.h"
+
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace bench {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// Build times at one thread count, in milliseconds.
+struct BuildTiming {
+    uint32_t threads = 1;
+    double median_ms = kNaN;
+    double min_ms = kNaN;
+    double max_ms = kNaN;
+    int runs = 0;
+};
+
+/// One builder on one scene.
+struct Row {
+    std::string builder;   ///< command-line id: "aac-hq", ..., "embree-low", "embree-medium", "embree-scene"
+    std::string label;     ///< display name
+    std::string status;    ///< "ok", "n/a" (builder not in this library build), "skipped", "error"
+    std::string note;      ///< why not ok, or a remark
+    std::vector<BuildTiming> timings;  ///< one per thread count that ran
+    double sah = kNaN;
+    double cost[kRayKindCount] = {kNaN, kNaN, kNaN};      ///< mean steps + tests per ray
+    double steps[kRayKindCount] = {kNaN, kNaN, kNaN};     ///< mean traversal steps per ray
+    double rel_cost[kRayKindCount] = {kNaN, kNaN, kNaN};  ///< cost / sweep SAH's cost
+    double mrays[kRayKindCount] = {kNaN, kNaN, kNaN};     ///< million rays per second, 1 thread
+    double bytes_per_triangle = kNaN;
+
+    /// Median build time at `threads`, NaN when that count did not run.
+    double build_ms(uint32_t threads) const;
+    /// Mean of the three relative costs (the SVG's y), NaN if any is missing.
+    double mean_rel_cost() const;
+};
+
+struct SceneResult {
+    std::string name;
+    std::string source;  ///< file path or "generated"
+    uint64_t triangles = 0;
+    Camera camera{};
+    uint32_t width = 0, height = 0;
+    uint64_t ray_counts[kRayKindCount] = {0, 0, 0};
+    std::vector<Row> rows;
+
+    const Row *find(const std::string &builder) const;
+};
+
+struct RunInfo {
+    std::string command;
+    std::string library_version;
+    std::string embree_version;
+    std::string cpu;
+    unsigned hardware_threads = 0;
+    std::vector<uint32_t> threads;  ///< thread counts timed; the first is the table's
+    int runs = 0;
+    std::string date;
+};
+
+/// The console table of one scene.
+void print_scene(FILE *out, const SceneResult &scene, const RunInfo &info);
+
+bool write_csv(const std::string &path, const std::vector<SceneResult> &scenes, const RunInfo &info,
+               std::string &err);
+bool write_json(const std::string &path, const std::vector<SceneResult> &scenes, const RunInfo &info,
+                std::string &err);
+bool write_svg(const std::string &path, const std::vector<SceneResult> &scenes, const RunInfo &info,
+               std::string &err);
+bool write_markdown(const std::string &path, const std::vector<SceneResult> &scenes, const RunInfo &info,
+                    std::string &err);
+
+/// Validators for --self-check: each reads the file back and checks its syntax
+/// (CSV: a header and rows of as many fields; JSON: a complete parse; SVG:
+/// balanced elements under one <svg> root). false with a message on failure.
+bool check_csv_file(const std::string &path, std::string &err);
+bool check_json_file(const std::string &path, std::string &err);
+bool check_svg_file(const std::string &path, std::string &err);
+bool check_markdown_file(const std::string &path, std::string &err);
+
+/// The CSV's column count (the header's fields).
+size_t csv_column_count();
+
+}  // namespace bench

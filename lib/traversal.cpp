@@ -1,0 +1,207 @@
+// Stack-based traversal of the binary BVH: both children's boxes are tested
+// together, the nearer is entered first and the farther pushed with its entry
+// distance, so that closest-hit queries skip it once a nearer hit is known.
+#include "traversal.h"
+
+#include <cmath>
+#include <vector>
+
+#include "ray_box.h"
+#include "triangle_intersect.h"
+
+namespace aacbvh {
+
+namespace {
+
+/// A stack of (node, entry distance) that lives on the call stack while the
+/// tree is shallow. Builders do not bound depth (degenerate inputs can give a
+/// depth near the primitive count), so entries past the fixed part spill into
+/// a heap vector, allocated only by rays that need it.
+class NodeStack {
+public:
+    struct Entry {
+        uint32_t node;
+        float t;
+    };
+
+    bool empty() const { return size_ == 0; }
+
+    void push(uint32_t node, float t) {
+        if (size_ < kFixed)
+            fixed_[size_] = Entry{node, t};
+        else
+            overflow_.push_back(Entry{node, t});
+        ++size_;
+    }
+    Entry pop() {
+        --size_;
+        if (size_ < kFixed) return fixed_[size_];
+        const Entry e = overflow_.back();
+        overflow_.pop_back();
+        return e;
+    }
+
+private:
+    static constexpr size_t kFixed = 64;
+    size_t size_ = 0;
+    Entry fixed_[kFixed];
+    std::vector<Entry> overflow_;
+};
+
+bool ray_is_valid(const aacbvh_ray &ray) {
+    for (int k = 0; k < 3; ++k)
+        if (!std::isfinite(ray.org[k]) || !std::isfinite(ray.dir[k])) return false;
+    if (std::isnan(ray.tmin) || std::isnan(ray.tmax)) return false;
+    return ray.dir[0] != 0.0f || ray.dir[1] != 0.0f || ray.dir[2] != 0.0f;
+}
+
+void set_miss(aacbvh_hit &hit) {
+    hit.t = INFINITY;
+    hit.u = 0.0f;
+    hit.v = 0.0f;
+    hit.prim_id = AACBVH_INVALID_ID;
+}
+
+struct TrianglePrimitives {
+    const Geometry &geometry;
+    TriangleRay ray;
+
+    bool intersect(uint32_t prim, float tmin, float tmax, float &t, float &u, float &v) const {
+        const float *p[3];
+        geometry.triangle(prim, p);
+        return intersect_triangle(ray, p[0], p[1], p[2], tmin, tmax, t, u, v);
+    }
+};
+
+struct BoxPrimitives {
+    const Geometry &geometry;
+    const BoxRay &ray;
+
+    bool intersect(uint32_t prim, float tmin, float tmax, float &t, float &u, float &v) const {
+        const float *b = geometry.box_ptr(prim);
+        u = 0.0f;
+        v = 0.0f;
+        return ray_box_primitive(ray, b, b + 3, tmin, tmax, t);
+    }
+};
+
+/// Closest hit (AnyHit false) or any hit (AnyHit true) of a valid ray over a
+/// non-empty tree. Returns whether something was hit; hit is filled for the
+/// closest-hit query only.
+///
+/// Counters: nodes_visited counts the nodes whose box was tested (the root,
+/// then both children of every inner node entered); primitive_tests counts
+/// every primitive test of every leaf entered.
+template <bool AnyHit, class Primitives>
+bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, float tmin,
+              float tmax, aacbvh_hit &hit, TraversalCounters *counters) {
+    const Node *nodes = bvh.nodes.data();
+    const uint32_t *prim_ids = bvh.prim_ids.data();
+    uint64_t boxes_tested = 1, prims_tested = 0;
+    bool found = false;
+    float best_u = 0.0f, best_v = 0.0f;
+    uint32_t best_prim = AACBVH_INVALID_ID;
+
+    float t_root;
+    if (ray_box_conservative(box_ray, nodes[0].box, tmin, tmax, t_root)) {
+        NodeStack stack;
+        uint32_t current = 0;
+        for (;;) {
+            const Node &node = nodes[current];
+            if (!node.is_leaf()) {
+                const Node &left = nodes[node.first];
+                const Node &right = nodes[node.first + 1];
+                float tl, tr;
+                const unsigned hits =
+                    ray_box_pair_conservative(box_ray, left.box, right.box, tmin, tmax, tl, tr);
+                const bool hit_l = (hits & 1u) != 0, hit_r = (hits & 2u) != 0;
+                boxes_tested += 2;
+                if (hit_l && hit_r) {
+                    if (tr < tl) {
+                        stack.push(node.first, tl);
+                        current = node.first + 1;
+                    } else {
+                        stack.push(node.first + 1, tr);
+                        current = node.first;
+                    }
+                    continue;
+                }
+                if (hit_l) { current = node.first; continue; }
+                if (hit_r) { current = node.first + 1; continue; }
+            } else {
+                prims_tested += node.count;
+                const uint32_t end = node.first + node.count;
+                for (uint32_t i = node.first; i < end; ++i) {
+                    float t, u, v;
+                    if (prims.intersect(prim_ids[i], tmin, tmax, t, u, v)) {
+                        found = true;
+                        if (AnyHit) break;
+                        tmax = t;
+                        best_u = u;
+                        best_v = v;
+                        best_prim = prim_ids[i];
+                    }
+                }
+                if (AnyHit && found) break;
+            }
+            // Next: the nearest pending node still in reach of the closest hit.
+            bool next = false;
+            while (!stack.empty()) {
+                const NodeStack::Entry e = stack.pop();
+                if (e.t <= tmax) {
+                    current = e.node;
+                    next = true;
+                    break;
+                }
+            }
+            if (!next) break;
+        }
+    }
+
+    if (counters) {
+        counters->nodes_visited += boxes_tested;
+        counters->primitive_tests += prims_tested;
+    }
+    if (!AnyHit) {
+        if (found) {
+            hit.t = tmax;
+            hit.u = best_u;
+            hit.v = best_v;
+            hit.prim_id = best_prim;
+        } else {
+            set_miss(hit);
+        }
+    }
+    return found;
+}
+
+template <bool AnyHit>
+bool query(const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray, aacbvh_hit &hit,
+           TraversalCounters *counters) {
+    if (bvh.empty() || geometry.kind == GeometryKind::None || !ray_is_valid(ray)) {
+        set_miss(hit);
+        return false;
+    }
+    const BoxRay box_ray = make_box_ray(ray.org, ray.dir);
+    if (geometry.kind == GeometryKind::Boxes) {
+        const BoxPrimitives prims{geometry, box_ray};
+        return traverse<AnyHit>(bvh, prims, box_ray, ray.tmin, ray.tmax, hit, counters);
+    }
+    const TrianglePrimitives prims{geometry, make_triangle_ray(ray.org, ray.dir)};
+    return traverse<AnyHit>(bvh, prims, box_ray, ray.tmin, ray.tmax, hit, counters);
+}
+
+} // namespace
+
+void intersect_ray(const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray, aacbvh_hit &hit,
+                   TraversalCounters *counters) {
+    query<false>(bvh, geometry, ray, hit, counters);
+}
+
+bool occluded_ray(const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
+                  TraversalCounters *counters) {
+    aacbvh_hit unused;
+    return query<true>(bvh, geometry, ray, unused, counters);
+}
+
+} // namespace aacbvh

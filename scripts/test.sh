@@ -1,0 +1,117 @@
+#!/usr/bin/env bash
+# Builds libaacbvh and runs every test three times over:
+#   1. a Release build                      (<build>)
+#   2. AddressSanitizer + UBSan             (<build>-asan, -DAACBVH_SANITIZE=address,undefined)
+#   3. ThreadSanitizer                      (<build>-tsan, -DAACBVH_SANITIZE=thread)
+# each with `ctest --output-on-failure`. Every stage runs even if an earlier
+# one failed; the exit status is non-zero if any did. Idempotent: reruns
+# reuse the build directories.
+# AACBVH_SANITIZERS=0 runs only the Release stage.
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+
+require_tools cmake c++ cc make pkg-config nm readelf
+failed=()
+probe_dir=$(mktemp -d)
+trap 'rm -rf "$probe_dir"' EXIT
+
+# run_stage NAME BUILD_DIR RUNNER -- CMAKE_ARGS...: configure, build, ctest.
+# RUNNER is a command prefix for ctest (e.g. setarch) or empty.
+run_stage() {
+    local name=$1 dir=$2 runner=$3
+    shift 4
+    log "$name: configure and build in $dir"
+    if ! configure "$dir" "$@" || ! cmake --build "$dir" -j "$AACBVH_JOBS"; then
+        failed+=("$name (build)")
+        return 0
+    fi
+    log "$name: ctest"
+    # shellcheck disable=SC2086  # runner is a word list on purpose
+    if ! (cd "$dir" && $runner ctest --output-on-failure -j "$AACBVH_JOBS"); then
+        failed+=("$name (tests)")
+    fi
+}
+
+# Sanitizer runtimes reserve fixed address ranges. On some kernels (large
+# vm.mmap_rnd_bits) that fails with "unexpected memory mapping"; running with
+# address randomisation off (setarch -R) or fewer random bits fixes it.
+# Prints the runner prefix that makes a probe program work, or fails.
+sanitizer_runner() {
+    local flags=$1 probe=$probe_dir/probe-${1//[^a-z]/_}
+    cat > "$probe_dir/probe.cpp" <<'CPP'
+#include <cstdio>
+#include <thread>
+#include <vector>
+int main() {
+    std::vector<int> v(1000, 1);
+    int sum = 0;
+    std::thread t([&] { for (int x : v) sum += x; });
+    t.join();
+    std::printf("%d\n", sum);
+    return sum == 1000 ? 0 : 1;
+}
+CPP
+    c++ -std=c++17 -fsanitize="$flags" -g "$probe_dir/probe.cpp" -o "$probe" -pthread >&2 || return 1
+    if "$probe" > /dev/null 2>&1; then
+        echo ""
+        return 0
+    fi
+    # LeakSanitizer cannot run under ptrace (some CI sandboxes): keep the
+    # rest of ASan and say so.
+    if "$probe" 2>&1 | grep -q LeakSanitizer; then
+        local options=${ASAN_OPTIONS//detect_leaks=1/detect_leaks=0}
+        if env ASAN_OPTIONS="$options" "$probe" > /dev/null 2>&1; then
+            echo "LeakSanitizer does not work here: running with detect_leaks=0" >&2
+            echo "env ASAN_OPTIONS=$options"
+            return 0
+        fi
+    fi
+    local setarch_cmd
+    setarch_cmd="setarch $(uname -m) -R"
+    if $setarch_cmd "$probe" > /dev/null 2>&1; then
+        echo "sanitizer probe ($flags) needs address randomisation off: using '$setarch_cmd'" >&2
+        echo "$setarch_cmd"
+        return 0
+    fi
+    local bits
+    bits=$(cat /proc/sys/vm/mmap_rnd_bits 2>/dev/null || echo "")
+    if [ -n "$bits" ] && [ "$bits" -gt 28 ] && [ -w /proc/sys/vm/mmap_rnd_bits ]; then
+        echo "sanitizer probe ($flags) failed: lowering vm.mmap_rnd_bits from $bits to 28" >&2
+        echo 28 > /proc/sys/vm/mmap_rnd_bits
+        if "$probe" > /dev/null 2>&1; then
+            echo ""
+            return 0
+        fi
+    fi
+    echo "sanitizer probe ($flags) does not run on this machine:" >&2
+    "$probe" >&2 || true
+    return 1
+}
+
+run_stage "release" "$AACBVH_BUILD_DIR" "" -- -DCMAKE_BUILD_TYPE=Release
+
+if [ "${AACBVH_SANITIZERS:-1}" != 0 ]; then
+    # Sanitized builds keep debug info for readable reports; any report fails the test.
+    export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:check_initialization_order=1:strict_init_order=1}
+    export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+    export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1}
+
+    if runner=$(sanitizer_runner address,undefined); then
+        run_stage "asan+ubsan" "$AACBVH_BUILD_DIR-asan" "$runner" -- \
+            -DCMAKE_BUILD_TYPE=RelWithDebInfo -DAACBVH_SANITIZE=address,undefined
+    else
+        failed+=("asan+ubsan (sanitizer does not run here)")
+    fi
+    if runner=$(sanitizer_runner thread); then
+        run_stage "tsan" "$AACBVH_BUILD_DIR-tsan" "$runner" -- \
+            -DCMAKE_BUILD_TYPE=RelWithDebInfo -DAACBVH_SANITIZE=thread
+    else
+        failed+=("tsan (sanitizer does not run here)")
+    fi
+fi
+
+if [ ${#failed[@]} -gt 0 ]; then
+    log "FAILED: ${failed[*]}"
+    exit 1
+fi
+log "all test stages passed"

@@ -1,0 +1,55 @@
+# Packaging and ABI checks that are not cmocka programs; included from
+# tests/CMakeLists.txt.
+
+# ---- exported symbols, symbol versions and SONAME ----
+add_test(NAME exported_symbols
+  COMMAND sh ${CMAKE_CURRENT_SOURCE_DIR}/check_symbols.sh
+          $<TARGET_FILE:aacbvh>
+          ${CMAKE_CURRENT_SOURCE_DIR}/exported_symbols.txt
+          ${PROJECT_SOURCE_DIR}/include/aacbvh/aacbvh.h
+          libaacbvh.so.${PROJECT_VERSION_MAJOR})
+
+# ---- the public header compiles as strict C99 and C++ ----
+# Run as tests rather than build steps, so a header problem shows up as a named
+# failure; the compiler is the project's, the flags are fixed here.
+set(_aacbvh_header_dir ${CMAKE_CURRENT_BINARY_DIR}/header_checks)
+file(MAKE_DIRECTORY ${_aacbvh_header_dir})
+add_test(NAME header_c99
+  COMMAND ${CMAKE_C_COMPILER} -std=c99 -pedantic -Wall -Wextra -Wstrict-prototypes -Werror
+          -I${PROJECT_SOURCE_DIR}/include -c ${CMAKE_CURRENT_SOURCE_DIR}/header_c99.c
+          -o ${_aacbvh_header_dir}/header_c99.o)
+foreach(_std 11 17)
+  add_test(NAME header_cxx${_std}
+    COMMAND ${CMAKE_CXX_COMPILER} -std=c++${_std} -pedantic -Wall -Wextra -Werror
+            -I${PROJECT_SOURCE_DIR}/include -c ${CMAKE_CURRENT_SOURCE_DIR}/header_cxx.cpp
+            -o ${_aacbvh_header_dir}/header_cxx${_std}.o)
+endforeach()
+
+# ---- examples run, so the documentation cannot rot ----
+if(AACBVH_BUILD_EXAMPLES)
+  add_test(NAME example_c_minimal COMMAND c-minimal)
+  add_test(NAME readme_example
+    COMMAND sh ${CMAKE_CURRENT_SOURCE_DIR}/check_readme_example.sh
+            ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/examples/c-minimal.c)
+  set_tests_properties(example_c_minimal PROPERTIES
+    PASS_REGULAR_EXPRESSION "hit triangle 1 at t = 1 ")
+  # Every builder on a small generated scene, with the cross-builder hit check.
+  add_test(NAME example_demo_small
+    COMMAND aacbvh-demo --small --runs 2 --builders all --threads 2)
+  set_tests_properties(example_demo_small PROPERTIES TIMEOUT 300)
+endif()
+
+# ---- install, then use through pkg-config and find_package ----
+# Skipped in sanitizer builds: the installed library would need the sanitizer
+# runtime loaded first in every program that links it.
+if(NOT AACBVH_SANITIZE)
+  add_test(NAME install_relocated
+    COMMAND sh ${CMAKE_CURRENT_SOURCE_DIR}/install_test.sh relocated
+            ${PROJECT_SOURCE_DIR} ${PROJECT_BINARY_DIR} ${CMAKE_COMMAND} ${CMAKE_C_COMPILER})
+  # A second, library-only build configured with an absolute libdir.
+  add_test(NAME install_absolute_libdir
+    COMMAND sh ${CMAKE_CURRENT_SOURCE_DIR}/install_test.sh absolute
+            ${PROJECT_SOURCE_DIR} ${PROJECT_BINARY_DIR} ${CMAKE_COMMAND} ${CMAKE_C_COMPILER})
+  set_tests_properties(install_relocated install_absolute_libdir PROPERTIES
+    TIMEOUT 900 RESOURCE_LOCK aacbvh_install)
+endif()

@@ -1,0 +1,97 @@
+#!/bin/sh
+# Installs libaacbvh into a scratch prefix and uses it the two ways README.md
+# documents: pkg-config (compiling examples/c-minimal.c with nothing but
+# `pkg-config --cflags --libs aacbvh`) and a CMake project using
+# find_package(aacbvh) + aacbvh::aacbvh (tests/find_package_project).
+#
+# usage: install_test.sh MODE SOURCE_DIR BUILD_DIR CMAKE C_COMPILER
+#   MODE relocated: `cmake --install BUILD_DIR --prefix <scratch>`, i.e. a
+#        prefix other than the configured one and the default, relative libdir.
+#   MODE absolute:  a second library-only build configured with an absolute
+#        CMAKE_INSTALL_LIBDIR (and a relative includedir), installed as configured.
+set -eu
+
+mode=$1 src=$2 bin=$3 cmake=$4 cc=$5
+work=$bin/install-test/$mode
+prefix=$work/prefix
+rm -rf "$prefix" "$work/consumer"
+mkdir -p "$work"
+
+step() { echo "--- $*"; }
+fail() { echo "FAIL: $*"; exit 1; }
+
+case $mode in
+relocated)
+    step "cmake --install $bin --prefix $prefix"
+    "$cmake" --install "$bin" --prefix "$prefix"
+    ;;
+absolute)
+    step "configure and build a library-only tree with CMAKE_INSTALL_LIBDIR=$prefix/abslib"
+    "$cmake" -S "$src" -B "$work/build" -DCMAKE_BUILD_TYPE=Release \
+        -DAACBVH_BUILD_TESTS=OFF -DAACBVH_BUILD_EXAMPLES=OFF \
+        -DCMAKE_C_COMPILER="$cc" \
+        -DCMAKE_INSTALL_PREFIX="$prefix" -DCMAKE_INSTALL_LIBDIR="$prefix/abslib" \
+        -DCMAKE_INSTALL_INCLUDEDIR=include > "$work/configure.log" ||
+        { cat "$work/configure.log"; fail "configure"; }
+    jobs=$(nproc 2>/dev/null || echo 2)
+    "$cmake" --build "$work/build" --target aacbvh -j "$jobs"
+    "$cmake" --install "$work/build"
+    ;;
+*)
+    fail "unknown mode $mode"
+    ;;
+esac
+
+pc=$(find "$prefix" -name aacbvh.pc | head -n 1)
+[ -n "$pc" ] || fail "no aacbvh.pc installed under $prefix"
+config=$(find "$prefix" -name aacbvhConfig.cmake | head -n 1)
+[ -n "$config" ] || fail "no aacbvhConfig.cmake installed under $prefix"
+echo "installed: $pc"
+echo "installed: $config"
+
+# ---- pkg-config ----
+PKG_CONFIG_PATH=$(dirname "$pc")
+export PKG_CONFIG_PATH
+step "pkg-config: $(pkg-config --cflags --libs aacbvh)"
+version=$(pkg-config --modversion aacbvh)
+for var in includedir libdir; do
+    dir=$(pkg-config --variable=$var aacbvh)
+    case $(cd "$dir" && pwd -P) in
+        "$(cd "$prefix" && pwd -P)"/*) ;;
+        *) fail "pkg-config $var '$dir' is not inside $prefix" ;;
+    esac
+done
+libdir=$(pkg-config --variable=libdir aacbvh)
+[ -f "$(pkg-config --variable=includedir aacbvh)/aacbvh/aacbvh.h" ] || fail "header not under includedir"
+
+# shellcheck disable=SC2046  # word splitting of the flags is intended
+"$cc" -std=c99 -o "$work/c-minimal" "$src/examples/c-minimal.c" $(pkg-config --cflags --libs aacbvh)
+out=$(LD_LIBRARY_PATH=$libdir "$work/c-minimal")
+echo "$out"
+echo "$out" | grep -q "^libaacbvh $version\$" || fail "c-minimal does not report version $version"
+echo "$out" | grep -q "^hit triangle" || fail "c-minimal did not hit"
+# The program must have used the installed library, not the build tree's.
+LD_LIBRARY_PATH=$libdir ldd "$work/c-minimal" | grep -q "$libdir/libaacbvh.so" ||
+    fail "c-minimal did not load $libdir/libaacbvh.so"
+
+# ---- find_package ----
+# A libdir outside the standard search layout (the absolute case) is found
+# through aacbvh_DIR, as a user would pass it.
+find_args="-DCMAKE_PREFIX_PATH=$prefix"
+[ "$mode" = absolute ] && find_args="-Daacbvh_DIR=$(dirname "$config")"
+step "find_package(aacbvh) with $find_args"
+"$cmake" -S "$src/tests/find_package_project" -B "$work/consumer" \
+    "$find_args" -DCMAKE_C_COMPILER="$cc" > "$work/consumer.log" ||
+    { cat "$work/consumer.log"; fail "configuring the find_package project"; }
+"$cmake" --build "$work/consumer"
+"$work/consumer/consumer"
+
+# SameMajorVersion: asking for another major version must fail.
+step "find_package(aacbvh 99.0) must fail"
+if "$cmake" -S "$src/tests/find_package_project" -B "$work/consumer-wrong" \
+    "$find_args" -DCMAKE_C_COMPILER="$cc" -DAACBVH_WANTED_VERSION=99.0 \
+    > "$work/consumer-wrong.log" 2>&1; then
+    fail "find_package(aacbvh 99.0) accepted version $version"
+fi
+rm -rf "$work/consumer-wrong"
+echo "ok: install ($mode) works with pkg-config and find_package, version $version"

@@ -1,0 +1,134 @@
+/*
+ * Helpers shared by the cmocka tests: a deterministic RNG, triangle and box
+ * scene generators, an OBJ loader for the optional real meshes, and a checker
+ * that walks a built tree through the public API and verifies its invariants.
+ * A C interface (implemented in C++ in test_support.cpp); tests stay C99.
+ */
+#ifndef AACBVH_TEST_SUPPORT_H
+#define AACBVH_TEST_SUPPORT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "aacbvh/aacbvh.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- Deterministic RNG (xorshift64*) ---------------------------------- */
+
+typedef struct ts_rng {
+    uint64_t state;
+} ts_rng;
+
+void ts_rng_seed(ts_rng *rng, uint64_t seed);
+uint64_t ts_rng_next(ts_rng *rng);
+/** Uniform integer in [0, bound); bound > 0. */
+uint32_t ts_rng_below(ts_rng *rng, uint32_t bound);
+/** Uniform float in [0, 1). */
+float ts_rng_float(ts_rng *rng);
+/** Uniform float in [lo, hi). */
+float ts_rng_range(ts_rng *rng, float lo, float hi);
+
+/* ---- Triangle meshes -------------------------------------------------- */
+
+/** A triangle mesh owned by the tests: vertices are packed x, y, z (stride
+ *  12 bytes); indices hold 3 per triangle. Free with ts_mesh_free(). */
+typedef struct ts_mesh {
+    float *vertices;
+    size_t vertex_count;
+    uint32_t *indices;
+    size_t triangle_count;
+} ts_mesh;
+
+typedef enum ts_scene_kind {
+    TS_SCENE_RANDOM = 0,        /**< random triangles in the cube [-1, 1]^3 */
+    TS_SCENE_GRID = 1,          /**< regular grid mesh with shared vertices (about n triangles) */
+    TS_SCENE_IDENTICAL = 2,     /**< all triangles the same */
+    TS_SCENE_SAME_CENTROID = 3, /**< different triangles, all with the same centroid */
+    TS_SCENE_ZERO_AREA = 4,     /**< collinear and point triangles (zero area) */
+    TS_SCENE_FLAT = 5,          /**< every vertex on the plane z = 0 */
+    TS_SCENE_SLIVERS = 6,       /**< long thin slivers in every direction */
+    TS_SCENE_WIDE_RANGE = 7,    /**< magnitudes from 1e-30 to 1e18 (float products stay finite) */
+    TS_SCENE_KIND_COUNT = 8
+} ts_scene_kind;
+
+/** A short name of a scene kind, for messages. */
+const char *ts_scene_name(ts_scene_kind kind);
+/** Generates a scene of `triangle_count` triangles (TS_SCENE_GRID may round
+ *  it to a grid; it is exact for the other kinds). Returns 1 on success. */
+int ts_make_scene(ts_scene_kind kind, size_t triangle_count, uint64_t seed, ts_mesh *out);
+/**
+ * Loads AACBVH_SCENES_DIR/file_name (an OBJ of v and f lines). Returns 1 on
+ * success, 0 when the file or the OBJ loader is not available (out is then
+ * zeroed; the caller falls back to a generated scene and says so).
+ */
+int ts_load_scene(const char *file_name, ts_mesh *out);
+/** Frees a mesh's arrays (accepts a zeroed mesh) and zeroes it. */
+void ts_mesh_free(ts_mesh *mesh);
+
+/** Bounding boxes (6 floats each: min xyz, max xyz) of a mesh's triangles,
+ *  computed exactly as min/max of the vertices. malloc'ed; free() it. */
+float *ts_mesh_boxes(const ts_mesh *mesh);
+/** Bounding boxes of triangles given as in aacbvh_bvh_set_triangles(). */
+float *ts_triangle_boxes(const float *vertices, size_t vertex_stride_bytes,
+                         const uint32_t *indices, size_t triangle_count);
+/** `count` random boxes (6 floats each) with corners in [-1, 1]^3 and
+ *  extents up to max_extent. malloc'ed; free() it. */
+float *ts_random_boxes(size_t count, float max_extent, uint64_t seed);
+
+/* ---- BVH helpers -------------------------------------------------------- */
+
+/** A copy of a built tree, read through the public API. */
+typedef struct ts_tree {
+    aacbvh_stats stats;
+    aacbvh_node *nodes;
+    size_t node_count;
+    uint32_t *prims;
+    size_t prim_count;
+} ts_tree;
+
+/** Reads stats, nodes and primitive indices. Returns AACBVH_OK or the first
+ *  failing status (out is then zeroed). Free with ts_tree_free(). */
+aacbvh_status ts_tree_fetch(const aacbvh_bvh *bvh, ts_tree *out);
+void ts_tree_free(ts_tree *tree);
+/** 1 when the two trees have the same nodes and primitive indices. */
+int ts_tree_equal(const ts_tree *a, const ts_tree *b);
+
+/** SAH cost of a tree, recomputed in double with the formula of aacbvh_stats. */
+double ts_tree_sah_cost(const ts_tree *tree, double traversal_cost, double intersection_cost);
+
+/**
+ * Checks every invariant of a built tree against its primitives' boxes
+ * (prim_boxes: 6 floats per primitive, prim_total primitives in the scene):
+ * each primitive expected in the tree (present == NULL: all; else those with
+ * present[i] != 0) is in exactly one leaf and no other is; child boxes lie in
+ * their parent's (exact compare); each leaf box contains its primitives'
+ * boxes; node count = 2 * leaves - 1; leaves hold 1..max_leaf_size primitives;
+ * inner nodes have count 0 and children in range; each node is reached once;
+ * the stats agree with a recount (sah_cost within 1e-6 relative, with the
+ * costs currently set on the BVH). Returns 1 when all hold, else 0 with a
+ * message in msg.
+ */
+int ts_check_tree(const aacbvh_bvh *bvh, const float *prim_boxes, size_t prim_total,
+                  const unsigned char *present, uint32_t max_leaf_size,
+                  char *msg, size_t msg_size);
+
+/** A context and a BVH on it, or fails the running cmocka test. */
+void ts_create(uint32_t threads, aacbvh_context **ctx, aacbvh_bvh **bvh);
+
+/** Fails the running cmocka test with the status names when `got != want`. */
+#define TS_EXPECT_STATUS(got, want)                                                   \
+    do {                                                                              \
+        aacbvh_status ts_got_ = (got), ts_want_ = (want);                             \
+        if (ts_got_ != ts_want_)                                                      \
+            fail_msg("%s:%d: %s returned %s, expected %s", __FILE__, __LINE__, #got,  \
+                     aacbvh_status_string(ts_got_), aacbvh_status_string(ts_want_));  \
+    } while (0)
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* AACBVH_TEST_SUPPORT_H */
