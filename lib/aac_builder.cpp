@@ -35,8 +35,9 @@ constexpr uint32_t kParallelGrain = 1u << 12;
 
 class AacRecursion {
 public:
-    AacRecursion(const AacConfig &config, BuildContext &ctx, BinaryTree &tree, const uint64_t *codes, float scale)
-        : config_(config), ctx_(ctx), tree_(tree), codes_(codes), scale_(scale),
+    AacRecursion(const AacConfig &config, const FlattenRule &rule, BuildContext &ctx, BinaryTree &tree,
+                 SubtreeChoices &choices, const uint64_t *codes, float scale)
+        : config_(config), rule_(rule), ctx_(ctx), tree_(tree), choices_(choices.data()), codes_(codes), scale_(scale),
           n_(tree.leaf_count()), clusters_(n_), free_ids_(n_) {
         // f(n) of the many small nodes comes from a table instead of pow().
         small_targets_.resize(std::min<uint32_t>(n_, kTargetTableSize) + 1);
@@ -60,7 +61,7 @@ private:
             }
             thread_local CombineScratch scratch;
             return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n,
-                                    root ? 1 : target(config_.delta), scale_, scratch, ctx_);
+                                    root ? 1 : target(config_.delta), scale_, rule_, choices_, scratch, ctx_);
         }
         if (n >= 256) ctx_.poll();
         const uint32_t m = split_point(b, e);
@@ -77,7 +78,7 @@ private:
         std::copy(&free_ids_[m], &free_ids_[m] + right, &free_ids_[b + left]);
         thread_local CombineScratch scratch;
         return combine_clusters(tree_, &clusters_[b], &free_ids_[b], left + right,
-                                root ? 1 : target(n), scale_, scratch, ctx_);
+                                root ? 1 : target(n), scale_, rule_, choices_, scratch, ctx_);
     }
 
     /// The radix-tree split: first index whose code has the highest differing bit set.
@@ -91,8 +92,10 @@ private:
     }
 
     const AacConfig &config_;
+    const FlattenRule &rule_;
     BuildContext &ctx_;
     BinaryTree &tree_;
+    SubtreeChoice *choices_;
     uint32_t target(uint32_t n) const {
         return n < small_targets_.size() ? small_targets_[n] : aac_cluster_target(config_, n);
     }
@@ -117,7 +120,8 @@ float distance_scale(const Box &bounds) {
 
 } // namespace
 
-void build_aac(const BuildInput &input, const AacConfig &config, BuildContext &ctx, BinaryTree &out) {
+void build_aac(const BuildInput &input, const AacConfig &config, const FlattenRule &rule, BuildContext &ctx,
+               BinaryTree &out, SubtreeChoices &choices) {
     const uint32_t n = uint32_t(input.size());
     Array<uint64_t> codes(n);
     Array<uint32_t> order(n);
@@ -145,7 +149,8 @@ void build_aac(const BuildInput &input, const AacConfig &config, BuildContext &c
         out.root = 0;
         return;
     }
-    AacRecursion(config, ctx, out, codes.data(), distance_scale(input.bounds)).run();
+    choices.resize(n);
+    AacRecursion(config, rule, ctx, out, choices, codes.data(), distance_scale(input.bounds)).run();
 }
 
 } // namespace aacbvh

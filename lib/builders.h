@@ -8,6 +8,7 @@
 #include "binary_tree.h"
 #include "build_context.h"
 #include "build_input.h"
+#include "flatten.h"
 
 namespace aacbvh {
 
@@ -22,7 +23,9 @@ struct AacConfig {
 /// f(n) = ceil(c * n^alpha), never below 1.
 uint32_t aac_cluster_target(const AacConfig &config, uint32_t n);
 
-void build_aac(const BuildInput &input, const AacConfig &config, BuildContext &ctx, BinaryTree &out);
+/// Also makes every node's flattening decision as it is created (into `choices`).
+void build_aac(const BuildInput &input, const AacConfig &config, const FlattenRule &rule, BuildContext &ctx,
+               BinaryTree &out, SubtreeChoices &choices);
 
 /// Top-down full-sweep SAH (MacDonald and Booth 1990).
 void build_sweep_sah(const BuildInput &input, double traversal_cost, double intersection_cost,

@@ -82,13 +82,18 @@ void BvhObject::build() {
     ctx.report(0.1);
 
     Bvh result;
+    double sah_cost = 0.0;
     if (input.size() > 0) {
+        const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost};
         BinaryTree tree;
+        SubtreeChoices choices;
+        bool decided = false; // AAC decides the flattening while it merges
         switch (params.builder) {
         case AACBVH_BUILDER_AAC_HQ:
         case AACBVH_BUILDER_AAC_FAST:
         case AACBVH_BUILDER_AAC:
-            build_aac(input, params.aac, ctx, tree);
+            build_aac(input, params.aac, rule, ctx, tree, choices);
+            decided = true;
             break;
         case AACBVH_BUILDER_SWEEP_SAH:
             build_sweep_sah(input, params.traversal_cost, params.intersection_cost, ctx, tree);
@@ -107,10 +112,11 @@ void BvhObject::build() {
         }
         ctx.report(0.8);
         const uint64_t input_bytes = input.boxes.capacity() * sizeof(Box) + input.prim_ids.capacity() * 4;
-        Array<Box>().swap(input.boxes); // flatten needs only the tree
-        flatten(tree, params.max_leaf_size, params.traversal_cost, params.intersection_cost, ctx, result);
+        Array<Box>().swap(input.boxes); // flattening needs only the tree
+        if (!decided) choose_subtrees(tree, rule, ctx, choices);
+        sah_cost = emit_bvh(tree, rule, choices, ctx, result);
         const uint64_t tree_bytes = tree.boxes.capacity() * sizeof(Box) + tree.children.capacity() * 4 +
-                                    tree.prim_ids.capacity() * 4;
+                                    tree.prim_ids.capacity() * 4 + choices.capacity() * sizeof(SubtreeChoice);
         build_peak_bytes_ = input_bytes + tree_bytes + result.memory_bytes();
     } else {
         build_peak_bytes_ = 0;
@@ -124,7 +130,7 @@ void BvhObject::build() {
     built_primitive_count_ = geometry_.primitive_count;
     has_topology_ = true;
     valid_ = true;
-    built_sah_cost_ = measure_tree(bvh_, params.traversal_cost, params.intersection_cost).sah_cost;
+    built_sah_cost_ = sah_cost;
     build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 

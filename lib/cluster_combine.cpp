@@ -3,62 +3,95 @@
 #include <algorithm>
 #include <cmath>
 
+#include "distance_row.h"
+
 namespace aacbvh {
 
 namespace {
 
-/// d(A, B) of the paper: surface area (here half of it) of the union box.
-inline float distance(const Box &a, const Box &b, float scale) {
-    const float dx = (std::max(a.hi[0], b.hi[0]) - std::min(a.lo[0], b.lo[0])) * scale;
-    const float dy = (std::max(a.hi[1], b.hi[1]) - std::min(a.lo[1], b.lo[1])) * scale;
-    const float dz = (std::max(a.hi[2], b.hi[2]) - std::min(a.lo[2], b.lo[2])) * scale;
-    return dx * dy + dy * dz + dz * dx;
-}
-
 /// Above this many clusters the pairwise matrix (count^2 floats) is not kept;
-/// rows are recomputed instead (exact-clustering settings reach this).
+/// rows are recomputed when needed instead (exact-clustering settings reach this).
 constexpr uint32_t kMatrixLimit = 2048;
 
-/// The greedy loop. With a matrix, d(i, j) of live clusters is cached
-/// (updating only the merged cluster's row, as the paper suggests); without,
-/// each distance is computed when needed.
-template <bool kMatrix>
-uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target, float scale,
-                 CombineScratch &s, BuildContext &ctx) {
-    const uint32_t stride = count;
-    Box *box = s.boxes.data();
-    float *dist = kMatrix ? s.distances.data() : nullptr;
-    float *nd = s.nearest_distance.data();
-    uint32_t *nn = s.nearest.data();
+inline uint32_t padded(uint32_t n) { return (n + 7) & ~7u; }
 
-    auto d = [&](uint32_t i, uint32_t j) -> float {
-        if (kMatrix) return dist[size_t(i) * stride + j];
-        return distance(box[i], box[j], scale);
-    };
-    auto find_nearest = [&](uint32_t i, uint32_t live) {
-        float best = INFINITY;
-        uint32_t arg = i == 0 ? 1 : 0;
-        for (uint32_t j = 0; j < live; ++j) {
-            if (j == i) continue;
-            const float dij = d(i, j);
-            if (dij < best) { best = dij; arg = j; }
-        }
-        nd[i] = best;
-        nn[i] = arg;
-    };
-
-    for (uint32_t i = 0; i < count; ++i) box[i] = tree.boxes[ids[i]];
-    if (kMatrix) {
-        for (uint32_t i = 0; i < count; ++i) {
-            dist[size_t(i) * stride + i] = INFINITY;
-            for (uint32_t j = i + 1; j < count; ++j) {
-                const float dij = distance(box[i], box[j], scale);
-                dist[size_t(i) * stride + j] = dij;
-                dist[size_t(j) * stride + i] = dij;
-            }
+/// Live clusters' boxes as six columns (structure of arrays) for distance_row().
+class Columns {
+public:
+    Columns(float *base, uint32_t stride) {
+        for (int k = 0; k < 3; ++k) {
+            cols_.lo[k] = base + size_t(k) * stride;
+            cols_.hi[k] = base + size_t(k + 3) * stride;
         }
     }
-    for (uint32_t i = 0; i < count; ++i) find_nearest(i, count);
+    const BoxColumns &columns() const { return cols_; }
+    void set(uint32_t i, const Box &b) {
+        for (int k = 0; k < 3; ++k) {
+            cols_.lo[k][i] = b.lo[k];
+            cols_.hi[k][i] = b.hi[k];
+        }
+    }
+    void query(uint32_t i, float q[6]) const {
+        for (int k = 0; k < 3; ++k) {
+            q[k] = cols_.lo[k][i];
+            q[k + 3] = cols_.hi[k][i];
+        }
+    }
+    void move(uint32_t from, uint32_t to) {
+        for (int k = 0; k < 3; ++k) {
+            cols_.lo[k][to] = cols_.lo[k][from];
+            cols_.hi[k][to] = cols_.hi[k][from];
+        }
+    }
+
+private:
+    BoxColumns cols_;
+};
+
+/// Index of the smallest of row[0, n) other than `self` (lowest index on ties).
+inline uint32_t argmin_excluding(const float *row, uint32_t n, uint32_t self, float &best) {
+    best = INFINITY;
+    uint32_t arg = self == 0 ? 1 : 0;
+    for (uint32_t j = 0; j < n; ++j)
+        if (j != self && row[j] < best) { best = row[j]; arg = j; }
+    return arg;
+}
+
+/// The greedy loop. With kMatrix, d(i, j) of live clusters is cached and only
+/// the merged cluster's row is recomputed, as the paper suggests; without, a
+/// row is recomputed whenever a nearest neighbour must be found again.
+template <bool kMatrix>
+uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target, float scale,
+                 const FlattenRule &rule, SubtreeChoice *choices, CombineScratch &s, BuildContext &ctx) {
+    const uint32_t n = tree.leaf_count();
+    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
+    const uint32_t stride = padded(count + 1); // + 1: a spare row for the non-matrix mode
+    Columns boxes(s.columns.data(), stride);
+    float *nd = s.nearest_distance.data();
+    uint32_t *nn = s.nearest.data();
+    float *matrix = s.distances.data();
+    float q[6];
+
+    for (uint32_t i = 0; i < count; ++i) boxes.set(i, tree.boxes[ids[i]]);
+    // Padding lanes read by the SIMD row get a harmless box.
+    for (uint32_t i = count; i < stride; ++i) boxes.set(i, tree.boxes[ids[0]]);
+
+    // row(i) points at d(i, .) for the live clusters.
+    auto row = [&](uint32_t i, uint32_t live) -> const float * {
+        if (kMatrix) return matrix + size_t(i) * stride;
+        float *out = matrix; // one scratch row
+        boxes.query(i, q);
+        distance_row(boxes.columns(), live, q, scale, out);
+        return out;
+    };
+
+    if (kMatrix) {
+        for (uint32_t i = 0; i < count; ++i) {
+            boxes.query(i, q);
+            distance_row(boxes.columns(), count, q, scale, matrix + size_t(i) * stride);
+        }
+    }
+    for (uint32_t i = 0; i < count; ++i) nn[i] = argmin_excluding(row(i, count), count, i, nd[i]);
 
     uint32_t live = count;
     uint32_t used = 0;
@@ -71,50 +104,61 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
         if (a > b) std::swap(a, b); // the merged cluster takes the lower slot
 
         const uint32_t node = free_ids[used++];
-        const Box merged = unite(box[a], box[b]);
+        const Box merged = unite(tree.boxes[ids[a]], tree.boxes[ids[b]]);
         tree.boxes[node] = merged;
         tree.set_children(node, ids[a], ids[b]);
+        choices[node - n] = rule.inner(merged, choice(ids[a]), choice(ids[b]));
 
         // Slot b is freed by moving the last live cluster into it.
         const uint32_t last = live - 1;
         if (b != last) {
-            box[b] = box[last];
+            boxes.move(last, b);
             ids[b] = ids[last];
             nd[b] = nd[last];
             nn[b] = nn[last];
             if (kMatrix) {
-                for (uint32_t j = 0; j < live; ++j) {
-                    dist[size_t(b) * stride + j] = dist[size_t(last) * stride + j];
-                    dist[size_t(j) * stride + b] = dist[size_t(j) * stride + last];
-                }
-                dist[size_t(b) * stride + b] = INFINITY;
+                std::copy(matrix + size_t(last) * stride, matrix + size_t(last) * stride + live,
+                          matrix + size_t(b) * stride);
+                for (uint32_t j = 0; j < live; ++j) matrix[size_t(j) * stride + b] = matrix[size_t(j) * stride + last];
             }
         }
         live = last;
-        box[a] = merged;
+        boxes.set(a, merged);
+        boxes.set(live, merged); // keep the padding lanes valid
         ids[a] = node;
+
+        const float *da;
         if (kMatrix) {
-            for (uint32_t j = 0; j < live; ++j) {
-                const float daj = j == a ? INFINITY : distance(merged, box[j], scale);
-                dist[size_t(a) * stride + j] = daj;
-                dist[size_t(j) * stride + a] = daj;
-            }
+            float *ra = matrix + size_t(a) * stride;
+            boxes.query(a, q);
+            distance_row(boxes.columns(), live, q, scale, ra);
+            for (uint32_t j = 0; j < live; ++j) matrix[size_t(j) * stride + a] = ra[j];
+            da = ra;
+        } else {
+            da = row(a, live);
         }
 
         // Clusters whose nearest neighbour was merged look again; the others
         // only compare with the new cluster.
+        float best_a = INFINITY;
+        uint32_t arg_a = a == 0 ? 1 : 0;
         for (uint32_t j = 0; j < live; ++j) {
             if (j == a) continue;
+            const float daj = da[j];
+            if (daj < best_a) { best_a = daj; arg_a = j; }
             uint32_t &p = nn[j];
             if (p == a || p == b) {
-                find_nearest(j, live);
+                p = kMatrix ? argmin_excluding(row(j, live), live, j, nd[j]) : ~0u; // ~0: redo below
                 continue;
             }
             if (p == last) p = b; // its partner moved slots
-            const float daj = d(j, a);
             if (daj < nd[j] || (daj == nd[j] && a < p)) { nd[j] = daj; p = a; }
         }
-        find_nearest(a, live);
+        nd[a] = best_a;
+        nn[a] = arg_a;
+        if (!kMatrix)
+            for (uint32_t j = 0; j < live; ++j)
+                if (nn[j] == ~0u) nn[j] = argmin_excluding(row(j, live), live, j, nd[j]);
     }
 
     // Unused ids move to the front of free_ids for the caller.
@@ -125,19 +169,21 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
 } // namespace
 
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                          float scale, CombineScratch &scratch, BuildContext &ctx) {
+                          float scale, const FlattenRule &rule, SubtreeChoice *choices, CombineScratch &scratch,
+                          BuildContext &ctx) {
     if (target < 1) target = 1;
     if (count <= target) return count;
-    if (scratch.boxes.size() < count) {
-        scratch.boxes.resize(count);
+    const uint32_t stride = padded(count + 1);
+    if (scratch.columns.size() < 6 * size_t(stride)) scratch.columns.resize(6 * size_t(stride));
+    if (scratch.nearest.size() < count) {
         scratch.nearest_distance.resize(count);
         scratch.nearest.resize(count);
     }
-    if (count <= kMatrixLimit) {
-        if (scratch.distances.size() < size_t(count) * count) scratch.distances.resize(size_t(count) * count);
-        return combine<true>(tree, ids, free_ids, count, target, scale, scratch, ctx);
-    }
-    return combine<false>(tree, ids, free_ids, count, target, scale, scratch, ctx);
+    const bool use_matrix = count <= kMatrixLimit;
+    const size_t matrix_floats = use_matrix ? size_t(count) * stride : stride;
+    if (scratch.distances.size() < matrix_floats) scratch.distances.resize(matrix_floats);
+    if (use_matrix) return combine<true>(tree, ids, free_ids, count, target, scale, rule, choices, scratch, ctx);
+    return combine<false>(tree, ids, free_ids, count, target, scale, rule, choices, scratch, ctx);
 }
 
 } // namespace aacbvh

@@ -9,13 +9,14 @@
 #include "binary_tree.h"
 #include "box.h"
 #include "build_context.h"
+#include "flatten.h"
 
 namespace aacbvh {
 
 /// Scratch memory reused across calls (one per thread) so the hot path does not allocate.
 struct CombineScratch {
-    std::vector<Box> boxes;
-    std::vector<float> distances;
+    std::vector<float> columns;          ///< 6 coordinate columns of the live clusters' boxes
+    std::vector<float> distances;        ///< pairwise matrix, row-major, stride = padded count
     std::vector<float> nearest_distance;
     std::vector<uint32_t> nearest;
 };
@@ -26,8 +27,11 @@ struct CombineScratch {
 /// clusters left and free_ids[0, result) the ids not used. Distances are half
 /// surface areas scaled by `scale` (keeps huge and tiny scenes in float range).
 /// Ties go to the lowest slot, so results are deterministic. Long combines
-/// (thousands of clusters) poll `ctx` for a cancel.
+/// (thousands of clusters) poll `ctx` for a cancel. Each new node's
+/// flattening decision is made at once (its sub-tree is complete): choices
+/// are indexed by id - leaf count.
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                          float scale, CombineScratch &scratch, BuildContext &ctx);
+                          float scale, const FlattenRule &rule, SubtreeChoice *choices, CombineScratch &scratch,
+                          BuildContext &ctx);
 
 } // namespace aacbvh

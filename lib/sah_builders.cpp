@@ -107,9 +107,9 @@ inline uint32_t float_order_key(float f) {
 // Full-sweep SAH
 // ---------------------------------------------------------------------------
 
-/// Keeps the primitives sorted by centroid on each axis (sorted once), sweeps
-/// all three lists at every node and partitions them stably, O(n log n) for
-/// balanced trees.
+/// Keeps the primitives (index and box) sorted by centroid on each axis,
+/// sorted once; sweeps all three lists at every node and partitions them
+/// stably, O(n log n) for balanced trees.
 class SweepSahBuilder {
 public:
     SweepSahBuilder(const BuildInput &input, BuildContext &ctx, BinaryTree &out)
@@ -118,7 +118,9 @@ public:
     void build() {
         out_.resize(n_);
         for (auto &order : order_) order.resize(n_);
+        for (auto &boxes : sorted_boxes_) boxes.resize(n_);
         scratch_.resize(n_);
+        scratch_boxes_.resize(n_);
         right_area_.resize(n_);
         goes_left_.resize(n_);
         Scheduler &s = ctx_.scheduler();
@@ -147,28 +149,31 @@ private:
         for (uint32_t i = 0; i < n_; ++i)
             keys[i] = uint64_t(float_order_key(input_.boxes[i].centroid(axis))) << 32 | i;
         std::sort(keys.begin(), keys.end());
-        for (uint32_t i = 0; i < n_; ++i) order_[axis][i] = uint32_t(keys[i]);
+        for (uint32_t i = 0; i < n_; ++i) {
+            const uint32_t p = uint32_t(keys[i]);
+            order_[axis][i] = p;
+            sorted_boxes_[axis][i] = input_.boxes[p];
+        }
     }
 
     void split(const RangeTask &task, RangeTask &left, RangeTask &right) {
         const uint32_t b = task.begin, e = task.end;
-        const Box *boxes = input_.boxes.data();
         float *right_area = right_area_.data();
         double best_cost = INFINITY;
         uint32_t best_m = b + 1;
         int best_axis = 0;
         Box node_box = Box::empty();
         for (int axis = 0; axis < 3; ++axis) {
-            const uint32_t *order = order_[axis].data();
+            const Box *boxes = sorted_boxes_[axis].data();
             // right_area[i]: area of the primitives [i, e).
             Box acc = Box::empty();
             for (uint32_t i = e - 1; i > b; --i) {
-                acc.extend(boxes[order[i]]);
+                acc.extend(boxes[i]);
                 right_area[i] = acc.half_area();
             }
             acc = Box::empty();
             for (uint32_t m = b + 1; m < e; ++m) {
-                acc.extend(boxes[order[m - 1]]);
+                acc.extend(boxes[m - 1]);
                 const double cost = double(acc.half_area()) * (m - b) + double(right_area[m]) * (e - m);
                 if (better_split(cost, m, best_cost, best_m, b, e)) {
                     best_cost = cost;
@@ -177,7 +182,7 @@ private:
                 }
             }
             if (axis == 0) {
-                acc.extend(boxes[order[e - 1]]);
+                acc.extend(boxes[e - 1]);
                 node_box = acc;
             }
         }
@@ -190,14 +195,22 @@ private:
             // Stable partition through the scratch range [b, e), which no
             // other task touches.
             uint32_t *order = order_[axis].data();
+            Box *boxes = sorted_boxes_[axis].data();
             uint32_t *scratch = scratch_.data();
+            Box *scratch_boxes = scratch_boxes_.data();
             uint32_t l = b, r = b;
             for (uint32_t i = b; i < e; ++i) {
                 const uint32_t p = order[i];
-                if (goes_left[p]) order[l++] = p;
-                else scratch[r++] = p;
+                if (goes_left[p]) {
+                    boxes[l] = boxes[i];
+                    order[l++] = p;
+                } else {
+                    scratch_boxes[r] = boxes[i];
+                    scratch[r++] = p;
+                }
             }
             std::copy(scratch + b, scratch + r, order + l);
+            std::copy(scratch_boxes + b, scratch_boxes + r, boxes + l);
         }
         emit_inner(out_, n_, task, best_m, node_box, left, right);
     }
@@ -207,7 +220,9 @@ private:
     BinaryTree &out_;
     uint32_t n_;
     Array<uint32_t> order_[3];   ///< primitive indices sorted by centroid, per axis
-    Array<uint32_t> scratch_;    ///< partition buffer, indexed like the orders
+    Array<Box> sorted_boxes_[3]; ///< their boxes, so that sweeps read memory in order
+    Array<uint32_t> scratch_;    ///< partition buffers, indexed like the orders
+    Array<Box> scratch_boxes_;
     Array<float> right_area_;    ///< suffix areas of the sweep, indexed like the orders
     Array<uint8_t> goes_left_;   ///< per primitive: side of the current split
 };

@@ -1,0 +1,79 @@
+#include "distance_row.h"
+
+#include <algorithm>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define AACBVH_X86 1
+#endif
+
+namespace aacbvh {
+
+namespace {
+
+[[maybe_unused]] void distance_row_scalar(const BoxColumns &b, uint32_t count, const float q[6], float scale,
+                                          float *out) {
+    for (uint32_t j = 0; j < count; ++j) {
+        const float dx = (std::max(b.hi[0][j], q[3]) - std::min(b.lo[0][j], q[0])) * scale;
+        const float dy = (std::max(b.hi[1][j], q[4]) - std::min(b.lo[1][j], q[1])) * scale;
+        const float dz = (std::max(b.hi[2][j], q[5]) - std::min(b.lo[2][j], q[2])) * scale;
+        out[j] = dx * dy + dy * dz + dz * dx;
+    }
+}
+
+#ifdef AACBVH_X86
+void distance_row_sse(const BoxColumns &b, uint32_t count, const float q[6], float scale, float *out) {
+    const __m128 qlx = _mm_set1_ps(q[0]), qly = _mm_set1_ps(q[1]), qlz = _mm_set1_ps(q[2]);
+    const __m128 qhx = _mm_set1_ps(q[3]), qhy = _mm_set1_ps(q[4]), qhz = _mm_set1_ps(q[5]);
+    const __m128 s = _mm_set1_ps(scale);
+    for (uint32_t j = 0; j < count; j += 4) {
+        const __m128 dx = _mm_mul_ps(_mm_sub_ps(_mm_max_ps(_mm_loadu_ps(b.hi[0] + j), qhx),
+                                                _mm_min_ps(_mm_loadu_ps(b.lo[0] + j), qlx)), s);
+        const __m128 dy = _mm_mul_ps(_mm_sub_ps(_mm_max_ps(_mm_loadu_ps(b.hi[1] + j), qhy),
+                                                _mm_min_ps(_mm_loadu_ps(b.lo[1] + j), qly)), s);
+        const __m128 dz = _mm_mul_ps(_mm_sub_ps(_mm_max_ps(_mm_loadu_ps(b.hi[2] + j), qhz),
+                                                _mm_min_ps(_mm_loadu_ps(b.lo[2] + j), qlz)), s);
+        const __m128 area = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dy), _mm_mul_ps(dy, dz)), _mm_mul_ps(dz, dx));
+        _mm_storeu_ps(out + j, area);
+    }
+}
+
+__attribute__((target("avx"))) void distance_row_avx(const BoxColumns &b, uint32_t count, const float q[6],
+                                                      float scale, float *out) {
+    const __m256 qlx = _mm256_set1_ps(q[0]), qly = _mm256_set1_ps(q[1]), qlz = _mm256_set1_ps(q[2]);
+    const __m256 qhx = _mm256_set1_ps(q[3]), qhy = _mm256_set1_ps(q[4]), qhz = _mm256_set1_ps(q[5]);
+    const __m256 s = _mm256_set1_ps(scale);
+    for (uint32_t j = 0; j < count; j += 8) {
+        const __m256 dx = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[0] + j), qhx),
+                                                      _mm256_min_ps(_mm256_loadu_ps(b.lo[0] + j), qlx)), s);
+        const __m256 dy = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[1] + j), qhy),
+                                                      _mm256_min_ps(_mm256_loadu_ps(b.lo[1] + j), qly)), s);
+        const __m256 dz = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[2] + j), qhz),
+                                                      _mm256_min_ps(_mm256_loadu_ps(b.lo[2] + j), qlz)), s);
+        const __m256 area =
+            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dy), _mm256_mul_ps(dy, dz)), _mm256_mul_ps(dz, dx));
+        _mm256_storeu_ps(out + j, area);
+    }
+}
+
+using RowFn = void (*)(const BoxColumns &, uint32_t, const float *, float, float *);
+
+RowFn pick_row_function() {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx") ? distance_row_avx : distance_row_sse;
+}
+
+const RowFn kRowFunction = pick_row_function();
+#endif
+
+} // namespace
+
+void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out) {
+#ifdef AACBVH_X86
+    kRowFunction(boxes, count, query, scale, out);
+#else
+    distance_row_scalar(boxes, count, query, scale, out);
+#endif
+}
+
+} // namespace aacbvh

@@ -1,0 +1,22 @@
+// One row of AAC's cluster distance matrix: d(A, B_j) = half surface area of
+// the union of box A with each box B_j, for boxes kept as structure of arrays.
+// This is the innermost loop of every AAC build, so it has SIMD versions
+// (SSE on every x86-64, AVX chosen at run time) and a scalar fallback.
+#pragma once
+
+#include <cstdint>
+
+namespace aacbvh {
+
+/// Boxes of the live clusters, one array per coordinate.
+struct BoxColumns {
+    float *lo[3];
+    float *hi[3];
+};
+
+/// out[j] = scale^2-weighted half area of union(query, boxes j), j in [0, count).
+/// query = {lo x, y, z, hi x, y, z}. All arrays may be read up to the next
+/// multiple of 8 past count (callers pad them).
+void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out);
+
+} // namespace aacbvh
