@@ -134,7 +134,7 @@ void build_aac(const BuildInput &input, const AacConfig &config, const FlattenRu
             order[i] = uint32_t(i);
         }
     });
-    radix_sort_pairs(codes, order, 63);
+    radix_sort_pairs(codes, order, 63, ctx.scheduler());
     ctx.report(0.3);
 
     out.resize(n);

@@ -8,6 +8,7 @@
 #include "geometry.h"
 #include "memory.h"
 #include "node.h"
+#include "scheduler.h"
 
 namespace aacbvh {
 
@@ -30,7 +31,8 @@ struct TreeFigures {
 /// Leaf count, depth and SAH cost (normalised by the root's area) of a tree.
 TreeFigures measure_tree(const Bvh &bvh, double traversal_cost, double intersection_cost);
 
-/// Recomputes every node's box bottom-up from the geometry (same topology).
-void refit_tree(Bvh &bvh, const Geometry &geometry);
+/// Recomputes every node's box bottom-up from the geometry (same topology):
+/// leaves in parallel, then inner nodes in one reverse sweep. Linear time.
+void refit_tree(Bvh &bvh, const Geometry &geometry, Scheduler &scheduler);
 
 } // namespace aacbvh

@@ -1,5 +1,6 @@
 #include "bvh_object.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -141,12 +142,19 @@ void BvhObject::refit() {
                     "refit needs the primitive count of the last build (" + std::to_string(built_primitive_count_) +
                         "), got " + std::to_string(geometry_.primitive_count) + ": build instead");
     // Check first so that a bad coordinate leaves the tree as it was.
-    for (uint32_t id : bvh_.prim_ids)
-        if (const char *why = primitive_problem(geometry_, id))
-            throw Error(AACBVH_ERROR_INVALID_GEOMETRY,
-                        std::string(geometry_.kind == GeometryKind::Boxes ? "box " : "triangle ") + std::to_string(id) +
-                            " " + why);
-    refit_tree(bvh_, geometry_);
+    const size_t bad = scheduler_.parallel_reduce(
+        size_t(0), bvh_.prim_ids.size(), size_t(1) << 14, SIZE_MAX,
+        [&](size_t b, size_t e) {
+            size_t first = SIZE_MAX;
+            for (size_t i = b; i < e; ++i)
+                if (primitive_problem(geometry_, bvh_.prim_ids[i])) first = std::min<size_t>(first, bvh_.prim_ids[i]);
+            return first;
+        },
+        [](size_t a, size_t b) { return std::min(a, b); });
+    if (bad != SIZE_MAX)
+        throw Error(AACBVH_ERROR_INVALID_GEOMETRY, std::string(geometry_.kind == GeometryKind::Boxes ? "box " : "triangle ") +
+                                                       std::to_string(bad) + " " + primitive_problem(geometry_, bad));
+    refit_tree(bvh_, geometry_, scheduler_);
     valid_ = true;
 }
 

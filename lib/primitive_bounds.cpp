@@ -14,6 +14,25 @@ namespace {
 
 bool finite3(const float *p) { return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]); }
 
+/// What one chunk of primitives contributes; joined left to right.
+struct ChunkSummary {
+    Box bounds = Box::empty();
+    Box centroid_bounds = Box::empty();
+    size_t first_invalid = SIZE_MAX;
+    size_t invalid = 0;
+};
+
+ChunkSummary join(const ChunkSummary &a, const ChunkSummary &b) {
+    ChunkSummary r;
+    r.bounds = unite(a.bounds, b.bounds);
+    r.centroid_bounds = unite(a.centroid_bounds, b.centroid_bounds);
+    r.first_invalid = a.first_invalid != SIZE_MAX ? a.first_invalid : b.first_invalid;
+    r.invalid = a.invalid + b.invalid;
+    return r;
+}
+
+constexpr size_t kGrain = 1u << 14;
+
 } // namespace
 
 const char *primitive_problem(const Geometry &g, size_t i) {
@@ -34,30 +53,54 @@ const char *primitive_problem(const Geometry &g, size_t i) {
 
 void compute_build_input(const Geometry &geometry, bool skip_invalid, BuildContext &ctx, BuildInput &input) {
     const size_t n = geometry.primitive_count;
-    input.boxes.clear();
-    input.prim_ids.clear();
-    input.boxes.reserve(n);
-    input.prim_ids.reserve(n);
-    input.bounds = Box::empty();
-    input.centroid_bounds = Box::empty();
-    input.invalid_count = 0;
-    for (size_t i = 0; i < n; ++i) {
-        if (const char *why = primitive_problem(geometry, i)) {
-            if (!skip_invalid) {
-                const char *kind = geometry.kind == GeometryKind::Boxes ? "box " : "triangle ";
-                throw Error(AACBVH_ERROR_INVALID_GEOMETRY, kind + std::to_string(i) + " " + why);
+    input.boxes.resize(n);
+    input.prim_ids.resize(n);
+
+    // One parallel pass: boxes in input order, and per chunk the bounds and
+    // the invalid primitives (the split is fixed, so results do not depend on
+    // the thread count).
+    const ChunkSummary all = ctx.scheduler().parallel_reduce(
+        size_t(0), n, kGrain, ChunkSummary{},
+        [&](size_t b, size_t e) {
+            ChunkSummary s;
+            for (size_t i = b; i < e; ++i) {
+                if (primitive_problem(geometry, i)) {
+                    if (s.first_invalid == SIZE_MAX) s.first_invalid = i;
+                    ++s.invalid;
+                    input.prim_ids[i] = UINT32_MAX;
+                    continue;
+                }
+                const Box box = geometry.primitive_box(i);
+                input.boxes[i] = box;
+                input.prim_ids[i] = uint32_t(i);
+                s.bounds.extend(box);
+                const float c[3] = {box.centroid(0), box.centroid(1), box.centroid(2)};
+                s.centroid_bounds.extend(c);
             }
-            ++input.invalid_count;
-            continue;
-        }
-        const Box b = geometry.primitive_box(i);
-        input.boxes.push_back(b);
-        input.prim_ids.push_back(uint32_t(i));
-        input.bounds.extend(b);
-        const float c[3] = {b.centroid(0), b.centroid(1), b.centroid(2)};
-        input.centroid_bounds.extend(c);
-        if ((i & 0xFFFF) == 0xFFFF) ctx.check_cancelled();
+            ctx.check_cancelled();
+            return s;
+        },
+        join);
+
+    if (all.invalid > 0 && !skip_invalid) {
+        const char *kind = geometry.kind == GeometryKind::Boxes ? "box " : "triangle ";
+        throw Error(AACBVH_ERROR_INVALID_GEOMETRY, kind + std::to_string(all.first_invalid) + " " +
+                                                       primitive_problem(geometry, all.first_invalid));
     }
+    if (all.invalid > 0) { // rare: squeeze the invalid ones out, keeping the order
+        size_t out = 0;
+        for (size_t i = 0; i < n; ++i) {
+            if (input.prim_ids[i] == UINT32_MAX) continue;
+            input.boxes[out] = input.boxes[i];
+            input.prim_ids[out] = input.prim_ids[i];
+            ++out;
+        }
+        input.boxes.resize(out);
+        input.prim_ids.resize(out);
+    }
+    input.bounds = all.bounds;
+    input.centroid_bounds = all.centroid_bounds;
+    input.invalid_count = all.invalid;
 }
 
 } // namespace aacbvh

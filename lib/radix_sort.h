@@ -4,12 +4,15 @@
 
 #include <cstddef>
 #include <cstdint>
+
 #include "memory.h"
+#include "scheduler.h"
 
 namespace aacbvh {
 
 /// Sorts keys ascending, moving values along. Only the low `key_bits` bits of
-/// the keys are looked at. Digits on which every key agrees are skipped.
-void radix_sort_pairs(Array<uint64_t> &keys, Array<uint32_t> &values, unsigned key_bits = 64);
+/// the keys are looked at; digits on which every key agrees are skipped. Runs
+/// on the scheduler's threads; the result does not depend on their number.
+void radix_sort_pairs(Array<uint64_t> &keys, Array<uint32_t> &values, unsigned key_bits, Scheduler &scheduler);
 
 } // namespace aacbvh
