@@ -67,6 +67,15 @@ template <class F> aacbvh_status guarded(const aacbvh_bvh *bvh, F &&body) {
         if (!(cond)) return fail((bvh), AACBVH_ERROR_INVALID_ARGUMENT, (message));                                 \
     } while (0)
 
+/// An enum value from C as a plain integer, without loading it as the C++
+/// enum type (a value outside the enumerators' range would be undefined there).
+template <class Enum> int32_t enum_value(const Enum &e) {
+    static_assert(sizeof(Enum) == sizeof(int32_t), "enums are 32-bit");
+    int32_t v;
+    std::memcpy(&v, &e, sizeof v);
+    return v;
+}
+
 } // namespace
 
 extern "C" {
@@ -75,7 +84,7 @@ unsigned aacbvh_version_number(void) { return AACBVH_VERSION_NUMBER; }
 const char *aacbvh_version_string(void) { return AACBVH_VERSION_STRING; }
 
 const char *aacbvh_status_string(aacbvh_status status) {
-    switch (status) {
+    switch (enum_value(status)) {
     case AACBVH_OK: return "AACBVH_OK";
     case AACBVH_ERROR_INVALID_ARGUMENT: return "AACBVH_ERROR_INVALID_ARGUMENT";
     case AACBVH_ERROR_INVALID_OPERATION: return "AACBVH_ERROR_INVALID_OPERATION";
@@ -133,24 +142,28 @@ const char *aacbvh_bvh_last_error(const aacbvh_bvh *bvh) {
 
 aacbvh_status aacbvh_bvh_set_param_int(aacbvh_bvh *bvh, aacbvh_param param, int64_t value) {
     AACBVH_REQUIRE_HANDLE(bvh);
-    return guarded(bvh, [&] { bvh->object.params.set_int(param, value); });
+    const int32_t key = enum_value(param);
+    return guarded(bvh, [&] { bvh->object.params.set_int(key, value); });
 }
 
 aacbvh_status aacbvh_bvh_set_param_float(aacbvh_bvh *bvh, aacbvh_param param, double value) {
     AACBVH_REQUIRE_HANDLE(bvh);
-    return guarded(bvh, [&] { bvh->object.params.set_float(param, value); });
+    const int32_t key = enum_value(param);
+    return guarded(bvh, [&] { bvh->object.params.set_float(key, value); });
 }
 
 aacbvh_status aacbvh_bvh_get_param_int(const aacbvh_bvh *bvh, aacbvh_param param, int64_t *out) {
     AACBVH_REQUIRE_HANDLE(bvh);
     AACBVH_REQUIRE(bvh, out, "out is NULL");
-    return guarded(bvh, [&] { *out = bvh->object.params.get_int(param); });
+    const int32_t key = enum_value(param);
+    return guarded(bvh, [&] { *out = bvh->object.params.get_int(key); });
 }
 
 aacbvh_status aacbvh_bvh_get_param_float(const aacbvh_bvh *bvh, aacbvh_param param, double *out) {
     AACBVH_REQUIRE_HANDLE(bvh);
     AACBVH_REQUIRE(bvh, out, "out is NULL");
-    return guarded(bvh, [&] { *out = bvh->object.params.get_float(param); });
+    const int32_t key = enum_value(param);
+    return guarded(bvh, [&] { *out = bvh->object.params.get_float(key); });
 }
 
 aacbvh_status aacbvh_bvh_set_triangles(aacbvh_bvh *bvh, const float *vertices, size_t vertex_count,

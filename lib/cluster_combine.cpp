@@ -166,6 +166,88 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
     return live;
 }
 
+/// The same greedy loop for a handful of clusters (AAC-Fast's nodes hold 2 to
+/// 8): everything in registers and stack arrays, scalar distances, no
+/// padding. Same tie rules as combine(), so results are identical.
+constexpr uint32_t kSmallLimit = 16;
+
+uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
+                       float scale, const FlattenRule &rule, SubtreeChoice *choices) {
+    const uint32_t n = tree.leaf_count();
+    Box box[kSmallLimit];
+    float d[kSmallLimit][kSmallLimit];
+    float nd[kSmallLimit];
+    uint32_t nn[kSmallLimit];
+    auto dist = [scale](const Box &a, const Box &b) {
+        const float dx = (std::max(a.hi[0], b.hi[0]) - std::min(a.lo[0], b.lo[0])) * scale;
+        const float dy = (std::max(a.hi[1], b.hi[1]) - std::min(a.lo[1], b.lo[1])) * scale;
+        const float dz = (std::max(a.hi[2], b.hi[2]) - std::min(a.lo[2], b.lo[2])) * scale;
+        return dx * dy + dy * dz + dz * dx;
+    };
+    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
+
+    for (uint32_t i = 0; i < count; ++i) box[i] = tree.boxes[ids[i]];
+    for (uint32_t i = 0; i < count; ++i) {
+        d[i][i] = INFINITY;
+        for (uint32_t j = i + 1; j < count; ++j) d[i][j] = d[j][i] = dist(box[i], box[j]);
+    }
+    for (uint32_t i = 0; i < count; ++i) nn[i] = argmin_excluding(d[i], count, i, nd[i]);
+
+    uint32_t live = count, used = 0;
+    while (live > target) {
+        uint32_t a = 0;
+        for (uint32_t i = 1; i < live; ++i)
+            if (nd[i] < nd[a]) a = i;
+        uint32_t b = nn[a];
+        if (a > b) std::swap(a, b);
+
+        const uint32_t node = free_ids[used++];
+        const Box merged = unite(box[a], box[b]);
+        tree.boxes[node] = merged;
+        tree.set_children(node, ids[a], ids[b]);
+        choices[node - n] = rule.inner(merged, choice(ids[a]), choice(ids[b]));
+
+        const uint32_t last = live - 1;
+        if (b != last) {
+            box[b] = box[last];
+            ids[b] = ids[last];
+            nd[b] = nd[last];
+            nn[b] = nn[last];
+            for (uint32_t j = 0; j < live; ++j) {
+                d[b][j] = d[last][j];
+                d[j][b] = d[j][last];
+            }
+            d[b][b] = INFINITY;
+        }
+        live = last;
+        box[a] = merged;
+        ids[a] = node;
+        float best_a = INFINITY;
+        uint32_t arg_a = a == 0 ? 1 : 0;
+        for (uint32_t j = 0; j < live; ++j) {
+            if (j == a) continue;
+            const float daj = dist(merged, box[j]);
+            d[a][j] = d[j][a] = daj;
+        }
+        for (uint32_t j = 0; j < live; ++j) {
+            if (j == a) continue;
+            const float daj = d[a][j];
+            if (daj < best_a) { best_a = daj; arg_a = j; }
+            uint32_t &p = nn[j];
+            if (p == a || p == b) {
+                p = argmin_excluding(d[j], live, j, nd[j]);
+                continue;
+            }
+            if (p == last) p = b;
+            if (daj < nd[j] || (daj == nd[j] && a < p)) { nd[j] = daj; p = a; }
+        }
+        nd[a] = best_a;
+        nn[a] = arg_a;
+    }
+    for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
+    return live;
+}
+
 } // namespace
 
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
@@ -173,6 +255,7 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
                           BuildContext &ctx) {
     if (target < 1) target = 1;
     if (count <= target) return count;
+    if (count <= kSmallLimit) return combine_small(tree, ids, free_ids, count, target, scale, rule, choices);
     const uint32_t stride = padded(count + 1);
     if (scratch.columns.size() < 6 * size_t(stride)) scratch.columns.resize(6 * size_t(stride));
     if (scratch.nearest.size() < count) {

@@ -11,7 +11,7 @@ namespace {
 
 [[noreturn]] void reject(const std::string &what) { throw Error(AACBVH_ERROR_INVALID_ARGUMENT, what); }
 
-bool is_int_key(aacbvh_param key) {
+bool is_int_key(int32_t key) {
     switch (key) {
     case AACBVH_PARAM_BUILDER:
     case AACBVH_PARAM_AAC_DELTA:
@@ -24,7 +24,7 @@ bool is_int_key(aacbvh_param key) {
     }
 }
 
-bool is_float_key(aacbvh_param key) {
+bool is_float_key(int32_t key) {
     switch (key) {
     case AACBVH_PARAM_AAC_C:
     case AACBVH_PARAM_AAC_ALPHA:
@@ -36,7 +36,7 @@ bool is_float_key(aacbvh_param key) {
     }
 }
 
-void check_key_type(aacbvh_param key, bool want_int) {
+void check_key_type(int32_t key, bool want_int) {
     if (is_int_key(key) == want_int && (want_int || is_float_key(key))) return;
     if (is_int_key(key) || is_float_key(key))
         reject("parameter " + std::to_string(int(key)) + " is " + (want_int ? "a float" : "an integer") +
@@ -49,7 +49,7 @@ void check_key_type(aacbvh_param key, bool want_int) {
 AacConfig Params::hq_preset() { return AacConfig{20, std::pow(20.0, 0.6) / 2.0, 0.4}; }
 AacConfig Params::fast_preset() { return AacConfig{4, std::pow(4.0, 0.7) / 2.0, 0.3}; }
 
-void Params::set_int(aacbvh_param key, int64_t value) {
+void Params::set_int(int32_t key, int64_t value) {
     check_key_type(key, true);
     switch (key) {
     case AACBVH_PARAM_BUILDER:
@@ -81,7 +81,7 @@ void Params::set_int(aacbvh_param key, int64_t value) {
     }
 }
 
-void Params::set_float(aacbvh_param key, double value) {
+void Params::set_float(int32_t key, double value) {
     check_key_type(key, false);
     if (!std::isfinite(value)) reject("parameter value must be finite");
     switch (key) {
@@ -108,7 +108,7 @@ void Params::set_float(aacbvh_param key, double value) {
     }
 }
 
-int64_t Params::get_int(aacbvh_param key) const {
+int64_t Params::get_int(int32_t key) const {
     check_key_type(key, true);
     switch (key) {
     case AACBVH_PARAM_BUILDER: return builder;
@@ -120,7 +120,7 @@ int64_t Params::get_int(aacbvh_param key) const {
     }
 }
 
-double Params::get_float(aacbvh_param key) const {
+double Params::get_float(int32_t key) const {
     check_key_type(key, false);
     switch (key) {
     case AACBVH_PARAM_AAC_C: return aac.c;

@@ -24,10 +24,12 @@ struct Params {
 
     /// Throw Error(AACBVH_ERROR_INVALID_ARGUMENT) for unknown keys, a key of the
     /// other type, or values out of range; then nothing changes.
-    void set_int(aacbvh_param key, int64_t value);
-    void set_float(aacbvh_param key, double value);
-    int64_t get_int(aacbvh_param key) const;
-    double get_float(aacbvh_param key) const;
+    /// Keys are plain integers: a C caller may pass any value, and loading an
+    /// out-of-range value as the C++ enum type would be undefined behaviour.
+    void set_int(int32_t key, int64_t value);
+    void set_float(int32_t key, double value);
+    int64_t get_int(int32_t key) const;
+    double get_float(int32_t key) const;
 };
 
 } // namespace aacbvh
