@@ -48,15 +48,6 @@ private:
     BoxColumns cols_;
 };
 
-/// Index of the smallest of row[0, n) other than `self` (lowest index on ties).
-inline uint32_t argmin_excluding(const float *row, uint32_t n, uint32_t self, float &best) {
-    best = INFINITY;
-    uint32_t arg = self == 0 ? 1 : 0;
-    for (uint32_t j = 0; j < n; ++j)
-        if (j != self && row[j] < best) { best = row[j]; arg = j; }
-    return arg;
-}
-
 /// The greedy loop. With kMatrix, d(i, j) of live clusters is cached and only
 /// the merged cluster's row is recomputed, as the paper suggests; without, a
 /// row is recomputed whenever a nearest neighbour must be found again.
@@ -82,16 +73,19 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
         float *out = matrix; // one scratch row
         boxes.query(i, q);
         distance_row(boxes.columns(), live, q, scale, out);
+        out[i] = INFINITY;
         return out;
     };
 
+    // The diagonal is +inf so that nearest-neighbour scans need no self test.
     if (kMatrix) {
         for (uint32_t i = 0; i < count; ++i) {
             boxes.query(i, q);
             distance_row(boxes.columns(), count, q, scale, matrix + size_t(i) * stride);
+            matrix[size_t(i) * stride + i] = INFINITY;
         }
     }
-    for (uint32_t i = 0; i < count; ++i) nn[i] = argmin_excluding(row(i, count), count, i, nd[i]);
+    for (uint32_t i = 0; i < count; ++i) nn[i] = argmin_row(row(i, count), count, nd[i]);
 
     uint32_t live = count;
     uint32_t used = 0;
@@ -132,6 +126,7 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
             float *ra = matrix + size_t(a) * stride;
             boxes.query(a, q);
             distance_row(boxes.columns(), live, q, scale, ra);
+            ra[a] = INFINITY;
             for (uint32_t j = 0; j < live; ++j) matrix[size_t(j) * stride + a] = ra[j];
             da = ra;
         } else {
@@ -148,7 +143,7 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
             if (daj < best_a) { best_a = daj; arg_a = j; }
             uint32_t &p = nn[j];
             if (p == a || p == b) {
-                p = kMatrix ? argmin_excluding(row(j, live), live, j, nd[j]) : ~0u; // ~0: redo below
+                p = kMatrix ? argmin_row(row(j, live), live, nd[j]) : ~0u; // ~0: redo below
                 continue;
             }
             if (p == last) p = b; // its partner moved slots
@@ -158,7 +153,7 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
         nn[a] = arg_a;
         if (!kMatrix)
             for (uint32_t j = 0; j < live; ++j)
-                if (nn[j] == ~0u) nn[j] = argmin_excluding(row(j, live), live, j, nd[j]);
+                if (nn[j] == ~0u) nn[j] = argmin_row(row(j, live), live, nd[j]);
     }
 
     // Unused ids move to the front of free_ids for the caller.
@@ -170,6 +165,15 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
 /// 8): everything in registers and stack arrays, scalar distances, no
 /// padding. Same tie rules as combine(), so results are identical.
 constexpr uint32_t kSmallLimit = 16;
+
+/// argmin_row() for rows of a few entries, inlined.
+inline uint32_t argmin_small(const float *row, uint32_t count, float &best) {
+    uint32_t arg = 0;
+    best = row[0];
+    for (uint32_t j = 1; j < count; ++j)
+        if (row[j] < best) { best = row[j]; arg = j; }
+    return arg;
+}
 
 uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
                        float scale, const FlattenRule &rule, SubtreeChoice *choices) {
@@ -191,7 +195,7 @@ uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint
         d[i][i] = INFINITY;
         for (uint32_t j = i + 1; j < count; ++j) d[i][j] = d[j][i] = dist(box[i], box[j]);
     }
-    for (uint32_t i = 0; i < count; ++i) nn[i] = argmin_excluding(d[i], count, i, nd[i]);
+    for (uint32_t i = 0; i < count; ++i) nn[i] = argmin_small(d[i], count, nd[i]);
 
     uint32_t live = count, used = 0;
     while (live > target) {
@@ -229,13 +233,14 @@ uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint
             const float daj = dist(merged, box[j]);
             d[a][j] = d[j][a] = daj;
         }
+        d[a][a] = INFINITY;
         for (uint32_t j = 0; j < live; ++j) {
             if (j == a) continue;
             const float daj = d[a][j];
             if (daj < best_a) { best_a = daj; arg_a = j; }
             uint32_t &p = nn[j];
             if (p == a || p == b) {
-                p = argmin_excluding(d[j], live, j, nd[j]);
+                p = argmin_small(d[j], live, nd[j]);
                 continue;
             }
             if (p == last) p = b;

@@ -1,6 +1,7 @@
 #include "distance_row.h"
 
 #include <algorithm>
+#include <cmath>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -64,9 +65,40 @@ RowFn pick_row_function() {
 }
 
 const RowFn kRowFunction = pick_row_function();
+
+/// Minimum of row[0, count) with SSE, then the first index holding it.
+uint32_t argmin_row_sse(const float *row, uint32_t count, float &best) {
+    __m128 m = _mm_set1_ps(INFINITY);
+    uint32_t j = 0;
+    for (; j + 4 <= count; j += 4) m = _mm_min_ps(m, _mm_loadu_ps(row + j));
+    m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
+    m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
+    float v = _mm_cvtss_f32(m);
+    for (; j < count; ++j) v = std::min(v, row[j]);
+    best = v;
+    for (uint32_t i = 0; i < count; ++i)
+        if (row[i] == v) return i;
+    return 0; // only when every entry is NaN, which valid boxes never give
+}
 #endif
 
+[[maybe_unused]] uint32_t argmin_row_scalar(const float *row, uint32_t count, float &best) {
+    uint32_t arg = 0;
+    best = row[0];
+    for (uint32_t j = 1; j < count; ++j)
+        if (row[j] < best) { best = row[j]; arg = j; }
+    return arg;
+}
+
 } // namespace
+
+uint32_t argmin_row(const float *row, uint32_t count, float &best) {
+#ifdef AACBVH_X86
+    return argmin_row_sse(row, count, best);
+#else
+    return argmin_row_scalar(row, count, best);
+#endif
+}
 
 void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out) {
 #ifdef AACBVH_X86

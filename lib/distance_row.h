@@ -19,4 +19,8 @@ struct BoxColumns {
 /// multiple of 8 past count (callers pad them).
 void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out);
 
+/// Index of the smallest of row[0, count) (the lowest such index on ties),
+/// with its value in `best`; count >= 1. Reads only row[0, count).
+uint32_t argmin_row(const float *row, uint32_t count, float &best);
+
 } // namespace aacbvh

@@ -202,8 +202,10 @@ bool embree_build_bvh(const std::vector<float> &vertices, const std::vector<uint
         args.maxBranchingFactor = 2;
         args.maxDepth = 1024;
         args.sahBlockSize = 1;
-        args.minLeafSize = 1;
         args.maxLeafSize = std::min<uint32_t>(max_leaf_size, RTC_BUILD_MAX_PRIMITIVES_PER_LEAF);
+        // The Morton builder splits every range down to minLeafSize; with 1 it makes
+        // one-triangle leaves. Ranges of up to the leaf limit stay whole, like ours.
+        args.minLeafSize = quality == EmbreeQuality::kLow ? args.maxLeafSize : 1;
         args.traversalCost = 1.2f;  // the SAH constants of aacbvh's defaults
         args.intersectionCost = 1.0f;
         args.bvh = bvh;

@@ -147,7 +147,8 @@ struct RayInv {
     float inv[3];
 };
 
-/// Slab test; returns the entry distance, or +infinity on a miss of [tmin, tmax].
+/// Slab test; returns the entry distance, or NaN on a miss of [tmin, tmax] (so
+/// every `t <= tmax` comparison is false, also with an infinite tmax).
 /// fmin/fmax drop the NaN of 0 * inf (origin on a slab plane, direction 0 on
 /// that axis), which then leaves the interval unconstrained on that axis.
 inline float enter_box(const aacbvh_node &node, const RayInv &r, float tmin, float tmax) {
@@ -158,7 +159,7 @@ inline float enter_box(const aacbvh_node &node, const RayInv &r, float tmin, flo
         t_enter = std::fmax(t_enter, std::fmin(t0, t1));
         t_exit = std::fmin(t_exit, std::fmax(t0, t1));
     }
-    return t_enter <= t_exit ? t_enter : std::numeric_limits<float>::infinity();
+    return t_enter <= t_exit ? t_enter : std::numeric_limits<float>::quiet_NaN();
 }
 
 inline void cross(const float a[3], const float b[3], float out[3]) {

@@ -48,10 +48,10 @@ const TableEntry kTable[] = {
     // Atrium: from one end of the ground-floor nave toward the other, light high in the atrium.
     {"sponza_dabrovic", {0.08f, 0.22f, 0.50f}, {0.90f, 0.30f, 0.50f}, {0.50f, 0.80f, 0.50f}, 60.0f},
     // Room: from near one wall across the table, light under the ceiling.
-    {"conference", {0.93f, 0.45f, 0.25f}, {0.55f, 0.20f, 0.25f}, {0.70f, 0.85f, 0.25f}, 60.0f},
+    {"conference", {0.85f, 0.50f, 0.75f}, {0.30f, 0.20f, 0.30f}, {0.60f, 0.85f, 0.50f}, 60.0f},
     // Nave: from the entrance end toward the altar, light in the upper nave.
     {"sibenik", {0.06f, 0.30f, 0.50f}, {0.80f, 0.32f, 0.50f}, {0.50f, 0.75f, 0.50f}, 60.0f},
-    // Track among the temple's foliage, a little above the ground.
+    // Along the track between the temple's walls and foliage, a little above the ground.
     {"stk_temple", {0.50f, 0.25f, 0.70f}, {0.50f, 0.22f, 0.30f}, {0.40f, 0.95f, 0.50f}, 65.0f},
     // Scans, from the front (+z) and a little above.
     {"bunny", {0.50f, 0.80f, 3.20f}, {0.50f, 0.45f, 0.50f}, {1.50f, 2.50f, 2.50f}, 40.0f},
@@ -103,12 +103,16 @@ Camera camera_for_scene(const std::string &scene_name, const Bounds &bounds) {
             return cam;
         }
     }
-    // Unknown scene: outside the bounds in front (+z) and above, looking at the centre.
-    const float eye[3] = {0.75f, 0.9f, 2.6f}, target[3] = {0.5f, 0.45f, 0.5f}, light[3] = {0.2f, 1.8f, 1.6f};
-    from_bounds(bounds, eye, cam.eye);
-    from_bounds(bounds, target, cam.target);
-    from_bounds(bounds, light, cam.light);
-    cam.fov_y_degrees = 50.0f;
+    // Unknown scene: from outside, above and in front (+z) of the centre at a
+    // distance set by the diagonal, so flat and tall scenes both fill the view.
+    const float d = 1.1f * bounds.diagonal();
+    const float dir[3] = {0.33f, 0.52f, 0.79f}, to_light[3] = {-0.5f, 0.8f, 0.33f};
+    for (int k = 0; k < 3; ++k) {
+        cam.target[k] = 0.5f * (bounds.lower[k] + bounds.upper[k]);
+        cam.eye[k] = cam.target[k] + d * dir[k];
+        cam.light[k] = cam.target[k] + d * to_light[k];
+    }
+    cam.fov_y_degrees = 45.0f;
     cam.source = "bounds";
     return cam;
 }

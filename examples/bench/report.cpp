@@ -627,7 +627,9 @@ bool write_markdown(const std::string &path, const std::vector<SceneResult> &sce
         o << format("- *The benefit is larger for shadow rays than for diffuse rays*: AAC-HQ's mean saving over "
                     "sweep SAH is %.1f%% on shadow rays and %.1f%% on diffuse rays (%s).\n",
                     100 * shadow_adv / adv_n, 100 * diffuse_adv / adv_n,
-                    shadow_adv > diffuse_adv ? "as in the paper" : "not as in the paper");
+                    shadow_adv > diffuse_adv && shadow_adv > 0 ? "as in the paper"
+                    : shadow_adv <= 0 ? "no benefit on shadow rays here: not as in the paper"
+                                      : "not as in the paper");
     o << "- *Build speed*: the table gives locally-ordered / AAC-HQ (paper: 5-6x), binned SAH / AAC-HQ (paper: "
          "about 1x) and binned SAH / AAC-Fast (paper: up to 4x).\n\n";
 
@@ -861,7 +863,7 @@ bool check_csv_file(const std::string &path, std::string &err) {
 bool check_json_file(const std::string &path, std::string &err) {
     std::string text;
     if (!read_file(path, text, err)) return false;
-    JsonParser p{text};
+    JsonParser p{text, 0, 0, std::string()};
     p.ws();
     if (p.i >= text.size() || text[p.i] != '{') {
         err = path + ": does not start with an object";

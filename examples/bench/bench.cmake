@@ -1,0 +1,51 @@
+# aacbvh-bench: the evaluation benchmark (ray cost, build times, Embree beside
+# us). Included from examples/CMakeLists.txt. Embree 3 is optional and used by
+# this benchmark only; the library and its tests never depend on it.
+set(_bench_dir ${CMAKE_CURRENT_LIST_DIR})
+
+option(AACBVH_BENCH_EMBREE "Compare with Embree 3 in aacbvh-bench when it is found" ON)
+if(AACBVH_BENCH_EMBREE)
+  find_path(EMBREE3_INCLUDE_DIR embree3/rtcore.h)
+  find_library(EMBREE3_LIBRARY NAMES embree3)
+endif()
+
+add_library(aacbvh_bench_core STATIC
+  ${_bench_dir}/ray_cost.cpp
+  ${_bench_dir}/rays.cpp)
+target_include_directories(aacbvh_bench_core PUBLIC ${_bench_dir})
+target_compile_options(aacbvh_bench_core PRIVATE -Wall -Wextra)
+target_link_libraries(aacbvh_bench_core PUBLIC aacbvh)
+
+add_executable(aacbvh-bench
+  ${_bench_dir}/bench_main.cpp
+  ${_bench_dir}/report.cpp
+  ${_bench_dir}/embree_bench.cpp)
+target_compile_options(aacbvh-bench PRIVATE -Wall -Wextra)
+target_link_libraries(aacbvh-bench PRIVATE aacbvh_bench_core aacbvh_scene Threads::Threads)
+target_compile_definitions(aacbvh-bench PRIVATE AACBVH_SCENES_DIR="${AACBVH_SCENES_DIR}")
+if(AACBVH_BENCH_EMBREE AND EMBREE3_INCLUDE_DIR AND EMBREE3_LIBRARY)
+  target_compile_definitions(aacbvh-bench PRIVATE AACBVH_BENCH_HAVE_EMBREE=1)
+  target_include_directories(aacbvh-bench PRIVATE ${EMBREE3_INCLUDE_DIR})
+  target_link_libraries(aacbvh-bench PRIVATE ${EMBREE3_LIBRARY})
+  message(STATUS "aacbvh-bench: comparing with Embree 3 (${EMBREE3_LIBRARY})")
+else()
+  message(STATUS "aacbvh-bench: Embree 3 not found or disabled, benchmark without it")
+endif()
+
+if(AACBVH_BUILD_TESTS)
+  # The ray-cost counter on a hand-built tree whose counts are known exactly.
+  add_executable(test_ray_cost ${_bench_dir}/test_ray_cost.cpp)
+  target_compile_options(test_ray_cost PRIVATE -Wall -Wextra)
+  target_link_libraries(test_ray_cost PRIVATE aacbvh_bench_core)
+  add_test(NAME bench_ray_cost COMMAND test_ray_cost)
+
+  # Smoke test: a small generated scene, one run, every output written and read
+  # back (--self-check); no timing is judged.
+  add_test(NAME bench_smoke
+    COMMAND aacbvh-bench --scenes procedural-small --runs 1 --rays 32 --threads 1,2 --self-check
+            --csv ${CMAKE_CURRENT_BINARY_DIR}/bench_smoke.csv
+            --json ${CMAKE_CURRENT_BINARY_DIR}/bench_smoke.json
+            --svg ${CMAKE_CURRENT_BINARY_DIR}/bench_smoke.svg
+            --markdown ${CMAKE_CURRENT_BINARY_DIR}/bench_smoke.md)
+  set_tests_properties(bench_smoke PROPERTIES TIMEOUT 300)
+endif()

@@ -1,0 +1,690 @@
+// aacbvh-bench: the evaluation of Gu et al. (HPG 2013, sec. 5) on this library.
+// For every scene and builder: build time (median, min, max of --runs), SAH cost,
+// ray cost (traversal steps + triangle tests per ray, counted by ray_cost.h) of
+// primary, shadow and diffuse rays, absolute and relative to full-sweep SAH,
+// single-thread Mrays/s of aacbvh_bvh_intersect / aacbvh_bvh_occluded, and bytes
+// per triangle; Embree 3 side by side when compiled in. Writes CSV, JSON, an SVG
+// plot and a Markdown report on request. Uses only the public C API.
+//
+//   aacbvh-bench [options] [scene.obj ...]      (aacbvh-bench --help)
+#include <aacbvh/aacbvh.h>
+
+#include "embree_bench.h"
+#include "ray_cost.h"
+#include "rays.h"
+#include "report.h"
+#include "scene.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#ifndef AACBVH_SCENES_DIR
+#define AACBVH_SCENES_DIR ""
+#endif
+
+using namespace bench;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct BuilderInfo {
+    const char *id;
+    const char *label;
+    int builder;  ///< an aacbvh_builder, or -1 for the Embree rows
+};
+
+const BuilderInfo kBuilders[] = {
+    {"sweep-sah", "Sweep SAH", AACBVH_BUILDER_SWEEP_SAH},
+    {"binned-sah", "Binned SAH", AACBVH_BUILDER_BINNED_SAH},
+    {"locally-ordered", "Locally-ordered", AACBVH_BUILDER_LOCALLY_ORDERED},
+    {"ploc", "PLOC", AACBVH_BUILDER_PLOC},
+    {"aac-hq", "AAC-HQ", AACBVH_BUILDER_AAC_HQ},
+    {"aac-fast", "AAC-Fast", AACBVH_BUILDER_AAC_FAST},
+    {"embree-low", "Embree LOW", -1},
+    {"embree-medium", "Embree MEDIUM", -1},
+    {"embree-scene", "Embree scene", -1},
+};
+
+struct Options {
+    std::vector<std::string> scenes;
+    std::vector<const BuilderInfo *> builders;
+    int runs = 5;
+    uint32_t width = 256, height = 256;
+    std::vector<uint32_t> threads{1};
+    uint64_t lo_max_triangles = 400000;
+    bool embree = true;
+    bool self_check = false;
+    uint32_t max_leaf_size = 4;
+    std::string csv, json, svg, markdown;
+    std::string preview_dir;  ///< --preview DIR: a PGM image of the primary hits per scene
+};
+
+void usage(FILE *out) {
+    std::fprintf(out,
+        "usage: aacbvh-bench [options] [scene.obj ...]\n"
+        "The AAC paper's evaluation: build time, SAH cost, ray cost (traversal steps +\n"
+        "triangle tests per ray, primary / shadow / diffuse, absolute and relative to\n"
+        "full-sweep SAH), single-thread Mrays/s and bytes per triangle, for every scene\n"
+        "and builder; Embree 3 beside it when compiled in (%s).\n"
+        "\n"
+        "options:\n"
+        "  --scenes LIST     comma-separated OBJ paths, names of OBJ files in the scenes\n"
+        "                    directory, 'procedural' (about 200 K triangles) or\n"
+        "                    'procedural-small' (about 3 K); default: every *.obj in\n"
+        "                    %s, else 'procedural'\n"
+        "  --builders LIST   comma-separated from sweep-sah, binned-sah, locally-ordered,\n"
+        "                    ploc, aac-hq, aac-fast, embree-low, embree-medium,\n"
+        "                    embree-scene; or all (the default)\n"
+        "  --runs N          builds per builder, scene and thread count (default 5);\n"
+        "                    also the timed passes over the rays\n"
+        "  --rays N|WxH      primary rays: an N x N image (default 256) or W x H\n"
+        "  --threads LIST    thread counts to time builds with, e.g. 1,2 (default 1);\n"
+        "                    the first is the tables'; trees and ray timing use 1 thread\n"
+        "  --lo-max-triangles N  run locally-ordered only on scenes of at most N\n"
+        "                    triangles (default 400000; 0 = no limit)\n"
+        "  --no-embree       leave Embree out\n"
+        "  --csv FILE, --json FILE, --svg FILE, --markdown FILE   write the results\n"
+        "  --preview DIR     write DIR/<scene>.pgm, the primary hits shaded by the cosine\n"
+        "                    to the light (to check the cameras)\n"
+        "  --self-check      read the written files back and check their syntax and the\n"
+        "                    trees; exit 1 on any failure (for tests)\n"
+        "  -h, --help        this text\n",
+        embree_compiled() ? ("Embree " + embree_version()).c_str() : "Embree not compiled in",
+        AACBVH_SCENES_DIR[0] ? AACBVH_SCENES_DIR : "(no scenes directory compiled in)");
+}
+
+std::vector<std::string> split(const std::string &s, char sep) {
+    std::vector<std::string> out;
+    size_t start = 0;
+    while (start <= s.size()) {
+        const size_t end = s.find(sep, start);
+        const std::string part = s.substr(start, end == std::string::npos ? std::string::npos : end - start);
+        if (!part.empty()) out.push_back(part);
+        if (end == std::string::npos) break;
+        start = end + 1;
+    }
+    return out;
+}
+
+bool parse_uint(const char *s, uint64_t &out) {
+    char *end = nullptr;
+    const unsigned long long v = std::strtoull(s, &end, 10);
+    if (!s[0] || *end || s[0] == '-') return false;
+    out = v;
+    return true;
+}
+
+bool parse_args(int argc, char **argv, Options &opt) {
+    bool builders_given = false;
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        auto next = [&](const char *what) -> const char * {
+            if (i + 1 >= argc) {
+                std::fprintf(stderr, "aacbvh-bench: %s needs a value\n", what);
+                return nullptr;
+            }
+            return argv[++i];
+        };
+        uint64_t v = 0;
+        if (a == "-h" || a == "--help") {
+            usage(stdout);
+            std::exit(0);
+        } else if (a == "--scenes") {
+            const char *s = next("--scenes");
+            if (!s) return false;
+            for (const std::string &p : split(s, ',')) opt.scenes.push_back(p);
+        } else if (a == "--builders") {
+            const char *s = next("--builders");
+            if (!s) return false;
+            builders_given = true;
+            for (const std::string &name : split(s, ',')) {
+                if (name == "all") {
+                    for (const BuilderInfo &b : kBuilders) opt.builders.push_back(&b);
+                    continue;
+                }
+                const BuilderInfo *found = nullptr;
+                for (const BuilderInfo &b : kBuilders)
+                    if (name == b.id) found = &b;
+                if (!found) {
+                    std::fprintf(stderr, "aacbvh-bench: unknown builder '%s'\n", name.c_str());
+                    return false;
+                }
+                opt.builders.push_back(found);
+            }
+        } else if (a == "--runs") {
+            const char *s = next("--runs");
+            if (!s || !parse_uint(s, v) || v < 1 || v > 1000) {
+                std::fprintf(stderr, "aacbvh-bench: --runs takes 1 to 1000\n");
+                return false;
+            }
+            opt.runs = int(v);
+        } else if (a == "--rays") {
+            const char *s = next("--rays");
+            if (!s) return false;
+            const std::vector<std::string> wh = split(s, 'x');
+            uint64_t w = 0, h = 0;
+            if (wh.size() == 1 && parse_uint(wh[0].c_str(), w)) h = w;
+            else if (wh.size() != 2 || !parse_uint(wh[0].c_str(), w) || !parse_uint(wh[1].c_str(), h)) w = 0;
+            if (w < 1 || h < 1 || w > 16384 || h > 16384) {
+                std::fprintf(stderr, "aacbvh-bench: --rays takes N or WxH, 1 to 16384\n");
+                return false;
+            }
+            opt.width = uint32_t(w);
+            opt.height = uint32_t(h);
+        } else if (a == "--threads") {
+            const char *s = next("--threads");
+            if (!s) return false;
+            opt.threads.clear();
+            for (const std::string &t : split(s, ',')) {
+                if (!parse_uint(t.c_str(), v) || v < 1 || v > 1024) {
+                    std::fprintf(stderr, "aacbvh-bench: --threads takes counts from 1 to 1024\n");
+                    return false;
+                }
+                if (std::find(opt.threads.begin(), opt.threads.end(), uint32_t(v)) == opt.threads.end())
+                    opt.threads.push_back(uint32_t(v));
+            }
+            if (opt.threads.empty()) return false;
+        } else if (a == "--lo-max-triangles") {
+            const char *s = next("--lo-max-triangles");
+            if (!s || !parse_uint(s, v)) return false;
+            opt.lo_max_triangles = v;
+        } else if (a == "--preview") {
+            const char *s = next("--preview");
+            if (!s) return false;
+            opt.preview_dir = s;
+        } else if (a == "--no-embree") {
+            opt.embree = false;
+        } else if (a == "--self-check") {
+            opt.self_check = true;
+        } else if (a == "--csv" || a == "--json" || a == "--svg" || a == "--markdown") {
+            const char *s = next(a.c_str());
+            if (!s) return false;
+            (a == "--csv" ? opt.csv : a == "--json" ? opt.json : a == "--svg" ? opt.svg : opt.markdown) = s;
+        } else if (!a.empty() && a[0] == '-') {
+            std::fprintf(stderr, "aacbvh-bench: unknown option %s (see --help)\n", a.c_str());
+            return false;
+        } else {
+            opt.scenes.push_back(a);
+        }
+    }
+    if (!builders_given)
+        for (const BuilderInfo &b : kBuilders) opt.builders.push_back(&b);
+    if (!opt.embree || !embree_compiled()) {
+        opt.builders.erase(std::remove_if(opt.builders.begin(), opt.builders.end(),
+                                          [](const BuilderInfo *b) { return b->builder < 0; }),
+                           opt.builders.end());
+    }
+    // Sweep SAH is the reference of the relative costs: measure it first.
+    std::stable_sort(opt.builders.begin(), opt.builders.end(), [](const BuilderInfo *a, const BuilderInfo *b) {
+        return std::string(a->id) == "sweep-sah" && std::string(b->id) != "sweep-sah";
+    });
+    opt.builders.erase(std::unique(opt.builders.begin(), opt.builders.end()), opt.builders.end());
+    return true;
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return kNaN;
+    std::sort(v.begin(), v.end());
+    const size_t m = v.size() / 2;
+    return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+BuildTiming timing_of(uint32_t threads, const std::vector<double> &seconds) {
+    BuildTiming t;
+    t.threads = threads;
+    t.runs = int(seconds.size());
+    if (!seconds.empty()) {
+        t.median_ms = 1e3 * median(seconds);
+        t.min_ms = 1e3 * *std::min_element(seconds.begin(), seconds.end());
+        t.max_ms = 1e3 * *std::max_element(seconds.begin(), seconds.end());
+    }
+    return t;
+}
+
+/// Resolves a --scenes entry to a loaded scene.
+bool load_scene(const std::string &spec, Scene &scene, std::string &err) {
+    if (spec == "procedural") {
+        scene = make_procedural_scene();
+        scene.name = "procedural";
+        return true;
+    }
+    if (spec == "procedural-small") {
+        ProceduralConfig c;
+        c.terrain_cells = 32;
+        c.sphere_count = 8;
+        c.sphere_rings = 6;
+        scene = make_procedural_scene(c);
+        scene.name = "procedural-small";
+        return true;
+    }
+    std::string path = spec;
+    if (spec.find('/') == std::string::npos && AACBVH_SCENES_DIR[0]) {
+        std::ifstream probe(spec);
+        if (!probe) {
+            path = std::string(AACBVH_SCENES_DIR) + "/" + spec;
+            if (path.size() < 4 || path.compare(path.size() - 4, 4, ".obj") != 0) path += ".obj";
+        }
+    }
+    return load_obj(path, scene, err);
+}
+
+/// The thread contexts, one per count, made on first use.
+struct Contexts {
+    std::map<uint32_t, aacbvh_context *> by_threads;
+    aacbvh_context *get(uint32_t threads) {
+        auto it = by_threads.find(threads);
+        if (it != by_threads.end()) return it->second;
+        aacbvh_context *ctx = nullptr;
+        if (aacbvh_context_create(threads, &ctx) != AACBVH_OK) return nullptr;
+        by_threads[threads] = ctx;
+        return ctx;
+    }
+    ~Contexts() {
+        for (auto &kv : by_threads) aacbvh_context_destroy(kv.second);
+    }
+};
+
+struct BvhDeleter {
+    void operator()(aacbvh_bvh *b) const { aacbvh_bvh_destroy(b); }
+};
+using BvhPtr = std::unique_ptr<aacbvh_bvh, BvhDeleter>;
+
+BvhPtr make_bvh(aacbvh_context *ctx, const Scene &scene, int builder, uint32_t max_leaf, std::string &err) {
+    aacbvh_bvh *raw = nullptr;
+    if (!ctx || aacbvh_bvh_create(ctx, &raw) != AACBVH_OK) {
+        err = "cannot create a BVH";
+        return nullptr;
+    }
+    BvhPtr bvh(raw);
+    if (aacbvh_bvh_set_param_int(raw, AACBVH_PARAM_BUILDER, builder) != AACBVH_OK ||
+        aacbvh_bvh_set_param_int(raw, AACBVH_PARAM_MAX_LEAF_SIZE, max_leaf) != AACBVH_OK ||
+        aacbvh_bvh_set_triangles(raw, scene.vertices.data(), scene.vertex_count(), 3 * sizeof(float),
+                                 scene.indices.data(), scene.triangle_count()) != AACBVH_OK) {
+        err = aacbvh_bvh_last_error(raw);
+        return nullptr;
+    }
+    return bvh;
+}
+
+/// Times `runs` calls of fn (returning false on failure), median Mrays/s.
+template <class Fn>
+double time_rays(size_t count, int runs, Fn fn) {
+    std::vector<double> s;
+    for (int r = 0; r < runs; ++r) {
+        const auto t0 = Clock::now();
+        if (!fn()) return kNaN;
+        s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    }
+    const double m = median(s);
+    return m > 0 ? count / m * 1e-6 : kNaN;
+}
+
+struct Checker {
+    bool enabled = false;
+    int failures = 0;
+    void fail(const std::string &what) {
+        ++failures;
+        std::fprintf(stderr, "aacbvh-bench: CHECK FAILED: %s\n", what.c_str());
+    }
+};
+
+/// Fills the quality columns of a row from a tree: SAH, ray costs.
+void measure_tree(const FlatTree &tree, const Scene &scene, const RaySets &rays, Row &row,
+                  std::vector<CountedHit> *primary_hits, Checker &check) {
+    std::string err;
+    if (!check_tree(tree, scene.triangle_count(), err)) check.fail(scene.name + ", " + row.label + ": " + err);
+    const CostTracer tracer(tree, scene.vertices.data(), scene.indices.data(), scene.triangle_count());
+    const CostSummary p = measure_closest(tracer, rays.rays[kPrimary], primary_hits);
+    const CostSummary s = measure_any(tracer, rays.rays[kShadow]);
+    const CostSummary d = measure_closest(tracer, rays.rays[kDiffuse]);
+    const CostSummary *all[kRayKindCount] = {&p, &s, &d};
+    for (int k = 0; k < kRayKindCount; ++k) {
+        row.cost[k] = all[k]->rays ? all[k]->total() : kNaN;
+        row.steps[k] = all[k]->rays ? all[k]->steps : kNaN;
+    }
+    if (std::isnan(row.sah)) row.sah = sah_cost(tree);
+}
+
+/// Compares the counting tracer's closest hits with the library's: a wrong tree
+/// or tracer shows up as disagreement. Returns the fraction of rays that disagree.
+double hit_disagreement(const std::vector<CountedHit> &counted, const std::vector<aacbvh_hit> &lib) {
+    if (counted.empty()) return 0.0;
+    size_t bad = 0;
+    for (size_t i = 0; i < counted.size(); ++i) {
+        const bool h0 = counted[i].prim_id != AACBVH_INVALID_ID, h1 = lib[i].prim_id != AACBVH_INVALID_ID;
+        if (h0 != h1) ++bad;
+        else if (h0 && std::fabs(counted[i].t - lib[i].t) > 1e-3f * std::max(1.0f, std::fabs(lib[i].t))) ++bad;
+    }
+    return double(bad) / counted.size();
+}
+
+std::string cpu_name() {
+    std::ifstream f("/proc/cpuinfo");
+    std::string line;
+    while (std::getline(f, line)) {
+        if (line.rfind("model name", 0) == 0) {
+            const size_t c = line.find(':');
+            if (c != std::string::npos) return line.substr(c + 2);
+        }
+    }
+    return "unknown CPU";
+}
+
+std::string format_check(const std::string &scene, const char *label, double own, double lib) {
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "%s, %s: SAH recomputed from the nodes %.6g, aacbvh_stats %.6g", scene.c_str(),
+                  label, own, lib);
+    return buf;
+}
+
+/// A grey image of the primary hits: brightness from the cosine between the
+/// geometric normal and the direction to the light; misses black.
+void write_preview(const std::string &dir, const Scene &scene, const Camera &cam, const RaySets &rays,
+                   const std::vector<aacbvh_hit> &hits) {
+    const std::string path = dir + "/" + scene.name + ".pgm";
+    std::FILE *f = std::fopen(path.c_str(), "wb");
+    if (!f) return;
+    std::fprintf(f, "P5\n%u %u\n255\n", rays.width, rays.height);
+    for (size_t i = 0; i < hits.size(); ++i) {
+        unsigned char g = 0;
+        if (hits[i].prim_id != AACBVH_INVALID_ID) {
+            const aacbvh_ray &r = rays.rays[kPrimary][i];
+            const uint32_t *t = &scene.indices[3 * size_t(hits[i].prim_id)];
+            float v[3][3], p[3], e1[3], e2[3], n[3], l[3];
+            for (int c = 0; c < 3; ++c)
+                for (int k = 0; k < 3; ++k) v[c][k] = scene.vertices[3 * size_t(t[c]) + k];
+            for (int k = 0; k < 3; ++k) {
+                p[k] = r.org[k] + hits[i].t * r.dir[k];
+                e1[k] = v[1][k] - v[0][k];
+                e2[k] = v[2][k] - v[0][k];
+                l[k] = cam.light[k] - p[k];
+            }
+            n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+            n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+            n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+            const float nn = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            const float ll = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+            const float cosine = nn > 0 && ll > 0 ? std::fabs(n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) / (nn * ll) : 0;
+            g = (unsigned char)(40 + 215 * cosine);
+        }
+        std::fputc(g, f);
+    }
+    std::fclose(f);
+}
+
+/// Runs every builder on one scene.
+SceneResult run_scene(const Scene &scene, const std::string &source, const Options &opt, Contexts &contexts,
+                      Checker &check) {
+    SceneResult res;
+    res.name = scene.name;
+    res.source = source;
+    res.triangles = scene.triangle_count();
+    res.width = opt.width;
+    res.height = opt.height;
+    const Bounds bounds = vertex_bounds(scene.vertices);
+    res.camera = camera_for_scene(scene.name, bounds);
+    aacbvh_context *ctx1 = contexts.get(1);
+
+    // The ray sets: primary rays, and secondary rays from their hits found with
+    // an AAC-HQ tree (the hits do not depend on the tree, so every builder traces the same rays).
+    RaySets rays;
+    rays.width = opt.width;
+    rays.height = opt.height;
+    rays.rays[kPrimary] = make_primary_rays(res.camera, opt.width, opt.height);
+    {
+        std::string err;
+        BvhPtr ref = make_bvh(ctx1, scene, AACBVH_BUILDER_AAC_HQ, opt.max_leaf_size, err);
+        std::vector<aacbvh_hit> hits(rays.rays[kPrimary].size());
+        if (!ref || aacbvh_bvh_build(ref.get()) != AACBVH_OK ||
+            aacbvh_bvh_intersect(ref.get(), rays.rays[kPrimary].data(), hits.data(), hits.size()) != AACBVH_OK) {
+            check.fail(scene.name + ": cannot trace the primary rays: " +
+                       (ref ? aacbvh_bvh_last_error(ref.get()) : err));
+        } else {
+            make_secondary_rays(rays.rays[kPrimary], hits, scene.vertices, scene.indices, res.camera,
+                                bounds.diagonal(), 0x5EED, rays.rays[kShadow], rays.rays[kDiffuse]);
+            for (const aacbvh_hit &h : hits) rays.primary_hits += h.prim_id != AACBVH_INVALID_ID;
+            if (!opt.preview_dir.empty()) write_preview(opt.preview_dir, scene, res.camera, rays, hits);
+        }
+    }
+    for (int k = 0; k < kRayKindCount; ++k) res.ray_counts[k] = rays.rays[k].size();
+    std::fprintf(stderr, "[%s] %zu triangles, %llu of %zu primary rays hit\n", scene.name.c_str(),
+                 scene.triangle_count(), (unsigned long long)rays.primary_hits, rays.rays[kPrimary].size());
+
+    for (const BuilderInfo *b : opt.builders) {
+        Row row;
+        row.builder = b->id;
+        row.label = b->label;
+        row.status = "ok";
+        std::fprintf(stderr, "[%s] %s ...\n", scene.name.c_str(), b->label);
+        if (b->builder == AACBVH_BUILDER_LOCALLY_ORDERED && opt.lo_max_triangles &&
+            scene.triangle_count() > opt.lo_max_triangles) {
+            row.status = "skipped";
+            row.note = "over " + std::to_string(opt.lo_max_triangles) + " triangles (--lo-max-triangles)";
+            res.rows.push_back(row);
+            continue;
+        }
+        if (b->builder >= 0) {
+            BvhPtr quality_bvh;  // the 1-thread tree whose quality and ray speed are measured
+            for (uint32_t t : opt.threads) {
+                std::string err;
+                BvhPtr bvh = make_bvh(contexts.get(t), scene, b->builder, opt.max_leaf_size, err);
+                if (!bvh) {
+                    row.status = "error";
+                    row.note = err;
+                    break;
+                }
+                std::vector<double> seconds;
+                for (int r = 0; r < opt.runs; ++r) {
+                    const auto t0 = Clock::now();
+                    const aacbvh_status s = aacbvh_bvh_build(bvh.get());
+                    const double sec = std::chrono::duration<double>(Clock::now() - t0).count();
+                    if (s != AACBVH_OK) {
+                        const std::string msg = aacbvh_bvh_last_error(bvh.get());
+                        row.status = msg.find("not available") != std::string::npos ? "n/a" : "error";
+                        row.note = msg;
+                        break;
+                    }
+                    seconds.push_back(sec);
+                }
+                if (row.status != "ok") break;
+                row.timings.push_back(timing_of(t, seconds));
+                if (t == 1) quality_bvh = std::move(bvh);
+            }
+            if (row.status == "ok" && !quality_bvh) {
+                std::string err;
+                quality_bvh = make_bvh(ctx1, scene, b->builder, opt.max_leaf_size, err);
+                if (!quality_bvh || aacbvh_bvh_build(quality_bvh.get()) != AACBVH_OK) {
+                    row.status = "error";
+                    row.note = quality_bvh ? aacbvh_bvh_last_error(quality_bvh.get()) : err;
+                }
+            }
+            if (row.status == "ok") {
+                aacbvh_bvh *bvh = quality_bvh.get();
+                aacbvh_stats stats{};
+                stats.struct_size = sizeof(stats);
+                FlatTree tree;
+                std::string err;
+                if (aacbvh_bvh_get_stats(bvh, &stats) != AACBVH_OK || !fetch_tree(bvh, tree, err)) {
+                    row.status = "error";
+                    row.note = "cannot read the tree: " + err;
+                } else {
+                    row.sah = stats.sah_cost;
+                    row.bytes_per_triangle = res.triangles ? double(stats.memory_bytes) / res.triangles : kNaN;
+                    const double own_sah = sah_cost(tree);
+                    if (std::fabs(own_sah - stats.sah_cost) > 1e-3 * std::max(1.0, stats.sah_cost))
+                        check.fail(format_check(scene.name, b->label, own_sah, stats.sah_cost));
+                    std::vector<CountedHit> counted;
+                    measure_tree(tree, scene, rays, row, &counted, check);
+                    std::vector<aacbvh_hit> hits(rays.rays[kPrimary].size());
+                    std::vector<uint8_t> occluded(rays.rays[kShadow].size());
+                    const auto &rp = rays.rays[kPrimary], &rs = rays.rays[kShadow], &rd = rays.rays[kDiffuse];
+                    row.mrays[kPrimary] = time_rays(rp.size(), opt.runs, [&] {
+                        return aacbvh_bvh_intersect(bvh, rp.data(), hits.data(), rp.size()) == AACBVH_OK;
+                    });
+                    const double disagree = hit_disagreement(counted, hits);
+                    if (disagree > 0.002)
+                        check.fail(scene.name + ", " + b->label + ": the counting tracer and aacbvh_bvh_intersect "
+                                   "disagree on " + std::to_string(100 * disagree) + "% of primary rays");
+                    row.mrays[kShadow] = time_rays(rs.size(), opt.runs, [&] {
+                        return aacbvh_bvh_occluded(bvh, rs.data(), occluded.data(), rs.size()) == AACBVH_OK;
+                    });
+                    std::vector<aacbvh_hit> dhits(rd.size());
+                    row.mrays[kDiffuse] = time_rays(rd.size(), opt.runs, [&] {
+                        return aacbvh_bvh_intersect(bvh, rd.data(), dhits.data(), rd.size()) == AACBVH_OK;
+                    });
+                }
+            }
+        } else if (row.builder == "embree-low" || row.builder == "embree-medium") {
+            const EmbreeQuality q = row.builder == "embree-low" ? EmbreeQuality::kLow : EmbreeQuality::kMedium;
+            FlatTree tree;
+            for (size_t ti = 0; ti < opt.threads.size() && row.status == "ok"; ++ti) {
+                std::vector<double> seconds;
+                std::string err;
+                if (!embree_build_bvh(scene.vertices, scene.indices, q, opt.threads[ti], opt.runs, opt.max_leaf_size,
+                                      seconds, ti == 0 ? &tree : nullptr, err)) {
+                    row.status = "error";
+                    row.note = err;
+                } else {
+                    row.timings.push_back(timing_of(opt.threads[ti], seconds));
+                }
+            }
+            if (row.status == "ok") {
+                row.bytes_per_triangle = res.triangles ? double(flat_tree_bytes(tree)) / res.triangles : kNaN;
+                row.note = "tree converted to aacbvh nodes; build time is rtcBuildBVH alone";
+                measure_tree(tree, scene, rays, row, nullptr, check);
+            }
+        } else {  // embree-scene
+            for (size_t ti = 0; ti < opt.threads.size() && row.status == "ok"; ++ti) {
+                std::vector<double> seconds;
+                std::string err;
+                uint64_t hits[kRayKindCount] = {0, 0, 0};
+                if (!embree_scene_bench(scene.vertices, scene.indices, opt.threads[ti], opt.runs,
+                                        ti == 0 ? &rays : nullptr, seconds, row.mrays, hits, err)) {
+                    row.status = "error";
+                    row.note = err;
+                } else {
+                    row.timings.push_back(timing_of(opt.threads[ti], seconds));
+                    if (ti == 0 && rays.primary_hits &&
+                        std::fabs(double(hits[kPrimary]) - double(rays.primary_hits)) > 0.002 * rays.primary_hits)
+                        check.fail(scene.name + ": Embree hits " + std::to_string(hits[kPrimary]) +
+                                   " primary rays, aacbvh " + std::to_string(rays.primary_hits));
+                }
+            }
+            if (row.status == "ok") row.note = "Embree's own BVH; no ray cost (its tree is not exposed)";
+        }
+        res.rows.push_back(row);
+    }
+
+    // Ray cost relative to full-sweep SAH.
+    if (const Row *sweep = res.find("sweep-sah")) {
+        const Row ref = *sweep;
+        for (Row &r : res.rows)
+            for (int k = 0; k < kRayKindCount; ++k) r.rel_cost[k] = r.cost[k] / ref.cost[k];
+    }
+    return res;
+}
+
+}  // namespace
+
+int main(int argc, char **argv) {
+    Options opt;
+    if (!parse_args(argc, argv, opt)) return 2;
+
+    RunInfo info;
+    for (int i = 0; i < argc; ++i) {
+        std::string a = argv[i];
+        if (i == 0) a = "aacbvh-bench";
+        info.command += (i ? " " : "") + a;
+    }
+    info.library_version = aacbvh_version_string();
+    info.embree_version = embree_compiled() ? embree_version() : "not compiled in";
+    if (!opt.embree && embree_compiled()) info.embree_version += " (left out: --no-embree)";
+    info.cpu = cpu_name();
+    info.hardware_threads = std::thread::hardware_concurrency();
+    info.threads = opt.threads;
+    info.runs = opt.runs;
+    {
+        const std::time_t now = std::time(nullptr);
+        char buf[64];
+        std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
+        info.date = buf;
+    }
+
+    std::vector<std::string> specs = opt.scenes;
+    if (specs.empty()) specs = default_scene_paths(AACBVH_SCENES_DIR[0] ? AACBVH_SCENES_DIR : nullptr);
+    if (specs.empty()) specs.push_back("procedural");
+
+    Contexts contexts;
+    if (!contexts.get(1)) {
+        std::fprintf(stderr, "aacbvh-bench: cannot create a context\n");
+        return 1;
+    }
+    Checker check;
+    check.enabled = opt.self_check;
+    std::vector<SceneResult> results;
+    for (const std::string &spec : specs) {
+        Scene scene;
+        std::string err;
+        const auto t0 = Clock::now();
+        if (!load_scene(spec, scene, err)) {
+            std::fprintf(stderr, "aacbvh-bench: %s: %s (skipped)\n", spec.c_str(), err.c_str());
+            if (opt.self_check) check.fail("cannot load " + spec);
+            continue;
+        }
+        std::fprintf(stderr, "[%s] loaded in %.1f s\n", scene.name.c_str(),
+                     std::chrono::duration<double>(Clock::now() - t0).count());
+        const bool generated = spec.rfind("procedural", 0) == 0;
+        results.push_back(run_scene(scene, generated ? "generated" : spec, opt, contexts, check));
+        print_scene(stdout, results.back(), info);
+    }
+    if (results.empty()) {
+        std::fprintf(stderr, "aacbvh-bench: no scene could be loaded\n");
+        return 1;
+    }
+
+    struct Output {
+        const std::string &path;
+        bool (*write)(const std::string &, const std::vector<SceneResult> &, const RunInfo &, std::string &);
+        bool (*verify)(const std::string &, std::string &);
+    };
+    const Output outputs[] = {{opt.csv, write_csv, check_csv_file},
+                              {opt.json, write_json, check_json_file},
+                              {opt.svg, write_svg, check_svg_file},
+                              {opt.markdown, write_markdown, check_markdown_file}};
+    int status = 0;
+    for (const Output &o : outputs) {
+        if (o.path.empty()) continue;
+        std::string err;
+        if (!o.write(o.path, results, info, err)) {
+            std::fprintf(stderr, "aacbvh-bench: %s\n", err.c_str());
+            status = 1;
+            continue;
+        }
+        std::fprintf(stderr, "wrote %s\n", o.path.c_str());
+        if (opt.self_check && !o.verify(o.path, err)) check.fail(err);
+    }
+    if (opt.self_check) {
+        // Every tree the benchmark measured must have cost figures.
+        for (const SceneResult &s : results)
+            for (const Row &r : s.rows)
+                if (r.status == "ok" && r.builder != "embree-scene" && !(r.cost[kPrimary] > 0))
+                    check.fail(s.name + ", " + r.label + ": no ray cost");
+        std::fprintf(stderr, "self-check: %s\n", check.failures ? "FAILED" : "passed");
+        if (check.failures) status = 1;
+    } else if (check.failures) {
+        std::fprintf(stderr, "aacbvh-bench: %d check(s) failed (see above)\n", check.failures);
+    }
+    return status;
+}

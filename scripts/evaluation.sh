@@ -1,0 +1,27 @@
+#!/bin/sh
+# Regenerates docs/EVALUATION.md (and docs/evaluation.{csv,json,svg}) from one run
+# of the evaluation benchmark over every OBJ in ../shared/scenes, every builder,
+# and Embree when the build found it. The command it runs:
+#
+#   aacbvh-bench --runs 5 --rays 256 --threads 1,2 \
+#       --csv docs/evaluation.csv --json docs/evaluation.json \
+#       --svg docs/evaluation.svg --markdown docs/EVALUATION.md
+#
+# Usage: scripts/evaluation.sh [BUILD_DIR] [extra aacbvh-bench options]
+# BUILD_DIR defaults to build-bench; it is configured and built when needed.
+set -eu
+root=$(cd "$(dirname "$0")/.." && pwd)
+build=${1:-"$root/build-bench"}
+[ $# -gt 0 ] && shift
+case $build in /*) ;; *) build="$PWD/$build" ;; esac
+
+if [ ! -f "$build/CMakeCache.txt" ]; then
+  cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release
+fi
+cmake --build "$build" --target aacbvh-bench -j2
+
+cd "$root"
+mkdir -p docs
+"$build/examples/aacbvh-bench" --runs 5 --rays 256 --threads 1,2 \
+  --csv docs/evaluation.csv --json docs/evaluation.json \
+  --svg docs/evaluation.svg --markdown docs/EVALUATION.md "$@"
