@@ -18,6 +18,7 @@ bool is_int_key(int32_t key) {
     case AACBVH_PARAM_MAX_LEAF_SIZE:
     case AACBVH_PARAM_PLOC_RADIUS:
     case AACBVH_PARAM_SKIP_INVALID_PRIMITIVES:
+    case AACBVH_PARAM_TRAVERSAL_LAYOUT:
         return true;
     default:
         return false;
@@ -76,6 +77,12 @@ void Params::set_int(int32_t key, int64_t value) {
         if (value != 0 && value != 1) reject("skip-invalid must be 0 or 1, got " + std::to_string(value));
         skip_invalid = value == 1;
         break;
+    case AACBVH_PARAM_TRAVERSAL_LAYOUT:
+        if (value != AACBVH_LAYOUT_BINARY && value != AACBVH_LAYOUT_WIDE4)
+            reject("traversal layout must be AACBVH_LAYOUT_BINARY (0) or AACBVH_LAYOUT_WIDE4 (1), got " +
+                   std::to_string(value));
+        layout = aacbvh_layout(value);
+        break;
     default:
         reject("unknown parameter");
     }
@@ -116,6 +123,7 @@ int64_t Params::get_int(int32_t key) const {
     case AACBVH_PARAM_MAX_LEAF_SIZE: return max_leaf_size;
     case AACBVH_PARAM_PLOC_RADIUS: return ploc_radius;
     case AACBVH_PARAM_SKIP_INVALID_PRIMITIVES: return skip_invalid ? 1 : 0;
+    case AACBVH_PARAM_TRAVERSAL_LAYOUT: return layout;
     default: reject("unknown parameter");
     }
 }

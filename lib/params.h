@@ -16,6 +16,7 @@ struct Params {
     double intersection_cost = 1.0;
     uint32_t ploc_radius = 16;
     bool skip_invalid = false;
+    aacbvh_layout layout = AACBVH_LAYOUT_BINARY;
 
     /// The paper's presets: HQ delta 20, f(n) = (20^0.6 / 2) n^0.4;
     /// Fast delta 4, f(n) = (4^0.7 / 2) n^0.3.

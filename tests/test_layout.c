@@ -64,6 +64,10 @@
     X(AACBVH_PARAM_INTERSECTION_COST == 6)                           \
     X(AACBVH_PARAM_PLOC_RADIUS == 7)                                 \
     X(AACBVH_PARAM_SKIP_INVALID_PRIMITIVES == 8)                     \
+    X(AACBVH_PARAM_TRAVERSAL_LAYOUT == 9)                            \
+    X(AACBVH_LAYOUT_BINARY == 0)                                     \
+    X(AACBVH_LAYOUT_WIDE4 == 1)                                      \
+    X(sizeof(aacbvh_layout) == 4)                                    \
     X(AACBVH_PARAM_MAX_ENUM == 0x7FFFFFFF)                           \
     X(AACBVH_INVALID_ID == 0xFFFFFFFFu)
 

@@ -174,8 +174,23 @@ typedef enum aacbvh_param {
      *  out-of-range indices out of the tree (counted in the stats) instead of
      *  failing the build with AACBVH_ERROR_INVALID_GEOMETRY. Default 0. */
     AACBVH_PARAM_SKIP_INVALID_PRIMITIVES = 8,
+    /** int, an aacbvh_layout: the structure ray queries traverse. The binary
+     *  nodes of aacbvh_bvh_get_nodes() exist in every layout. Default
+     *  AACBVH_LAYOUT_BINARY. */
+    AACBVH_PARAM_TRAVERSAL_LAYOUT = 9,
     AACBVH_PARAM_MAX_ENUM = 0x7FFFFFFF
 } aacbvh_param;
+
+/** Traversal layouts. Values are pinned forever. */
+typedef enum aacbvh_layout {
+    /** Queries walk the 32-byte binary nodes themselves: no extra memory. */
+    AACBVH_LAYOUT_BINARY = 0,
+    /** Queries walk a 4-wide tree collapsed from the binary one, tested four
+     *  boxes at a time with SIMD: faster rays, more memory (reported in
+     *  aacbvh_stats.memory_bytes). Made by build and kept up to date by refit. */
+    AACBVH_LAYOUT_WIDE4 = 1,
+    AACBVH_LAYOUT_MAX_ENUM = 0x7FFFFFFF
+} aacbvh_layout;
 
 /** Sets an integer parameter. Returns AACBVH_OK or AACBVH_ERROR_INVALID_ARGUMENT. */
 AACBVH_API aacbvh_status aacbvh_bvh_set_param_int(aacbvh_bvh *bvh, aacbvh_param param, int64_t value);
