@@ -34,6 +34,9 @@ struct BuilderInfo {
     aacbvh_builder builder;
 };
 
+/// Relative difference of closest-hit distances accepted as rounding.
+constexpr double kRelativeTolerance = 1e-5;
+
 const BuilderInfo kBuilders[] = {
     {"aac-hq", AACBVH_BUILDER_AAC_HQ},
     {"aac-fast", AACBVH_BUILDER_AAC_FAST},
@@ -281,29 +284,36 @@ size_t run_scene(aacbvh_context *ctx, const Scene &scene, const Options &opt) {
             if (!rays.empty()) {
                 check(aacbvh_bvh_intersect(bvh, rays.data(), hits.data(), rays.size()), bvh,
                       "aacbvh_bvh_intersect", where);
-                size_t hit_count = 0, differ = 0;
+                size_t hit_count = 0, differ = 0, rounding = 0;
                 for (size_t i = 0; i < hits.size(); ++i) {
                     hit_count += hits[i].prim_id != AACBVH_INVALID_ID;
-                    // Closest-hit distances must agree exactly: each is the
-                    // minimum of the same per-triangle tests, whatever the tree.
-                    if (have_reference && hits[i].t != reference[i].t) {
-                        if (differ++ == 0)
-                            std::fprintf(stderr,
-                                         "aacbvh-demo: %s: ray %zu (org %.9g %.9g %.9g, dir %.9g %.9g "
-                                         "%.9g): t = %.9g (triangle %u), first builder t = %.9g "
-                                         "(triangle %u)\n",
-                                         where.c_str(), i, rays[i].org[0], rays[i].org[1],
-                                         rays[i].org[2], rays[i].dir[0], rays[i].dir[1],
-                                         rays[i].dir[2], hits[i].t, hits[i].prim_id,
-                                         reference[i].t, reference[i].prim_id);
+                    if (!have_reference || hits[i].t == reference[i].t)
+                        continue;
+                    // Closest-hit distances agree whatever the tree, except
+                    // where overlapping coplanar triangles give distances an
+                    // ulp or so apart and a tree finds the other one first.
+                    const double a = hits[i].t, b = reference[i].t;
+                    if (std::isfinite(a) && std::isfinite(b) &&
+                        std::fabs(a - b) <= kRelativeTolerance * std::max(std::fabs(a), std::fabs(b))) {
+                        ++rounding;
+                        continue;
                     }
+                    if (differ++ == 0)
+                        std::fprintf(stderr,
+                                     "aacbvh-demo: %s: ray %zu (org %.9g %.9g %.9g, dir %.9g %.9g %.9g): "
+                                     "t = %.9g (primitive %u), first builder t = %.9g (primitive %u)\n",
+                                     where.c_str(), i, rays[i].org[0], rays[i].org[1], rays[i].org[2],
+                                     rays[i].dir[0], rays[i].dir[1], rays[i].dir[2], hits[i].t,
+                                     hits[i].prim_id, reference[i].t, reference[i].prim_id);
                 }
                 if (!have_reference) {
                     reference = hits;
                     have_reference = true;
                     ray_note = "ref " + std::to_string(hit_count) + "/" + std::to_string(hits.size());
+                } else if (differ != 0) {
+                    ray_note = std::to_string(differ) + " DIFFER";
                 } else {
-                    ray_note = differ == 0 ? "same" : std::to_string(differ) + " DIFFER";
+                    ray_note = rounding == 0 ? "same" : "same (" + std::to_string(rounding) + " within 1e-5)";
                 }
                 mismatches += differ;
             }
