@@ -9,6 +9,7 @@
 // shared edge or vertex.
 #pragma once
 
+#include <cfloat>
 #include <cmath>
 
 namespace aacbvh {
@@ -40,10 +41,51 @@ inline TriangleRay make_triangle_ray(const float org[3], const float dir[3]) {
     return r;
 }
 
+/// Whether the triangle has non-zero area: its edge vectors' cross product in
+/// double, where differences and products of floats of like magnitude are
+/// exact, so collinear vertices give exactly zero. Called only on hits that
+/// look degenerate in single precision.
+inline bool has_area(const float *p0, const float *p1, const float *p2) {
+    double e1[3], e2[3];
+    for (int k = 0; k < 3; ++k) {
+        e1[k] = double(p1[k]) - double(p0[k]);
+        e2[k] = double(p2[k]) - double(p0[k]);
+    }
+    return e1[1] * e2[2] != e1[2] * e2[1] || e1[2] * e2[0] != e1[0] * e2[2] || e1[0] * e2[1] != e1[1] * e2[0];
+}
+
+/// The tail of intersect_triangle() in double precision, from the same sheared
+/// vertices: products of floats are exact in double, so each edge function
+/// rounds once (in the difference) and its sign is exact (paper, section
+/// 4.1), and nothing overflows or underflows for float inputs. Used when the
+/// single-precision edge functions are zero, denormal, infinite or NaN (a ray
+/// on an edge; coordinates so small or large that the products leave float
+/// range), or the distance does not fit a float.
+inline bool intersect_triangle_double(float ax, float ay, float az, float bx, float by, float bz, float cx,
+                                      float cy, float cz, float sz, float tmin, float tmax, float &t, float &u,
+                                      float &v) {
+    const double eu = double(cx) * double(by) - double(cy) * double(bx);
+    const double ev = double(ax) * double(cy) - double(ay) * double(cx);
+    const double ew = double(bx) * double(ay) - double(by) * double(ax);
+    if ((eu < 0.0 || ev < 0.0 || ew < 0.0) && (eu > 0.0 || ev > 0.0 || ew > 0.0)) return false;
+    const double det = eu + ev + ew;
+    if (det == 0.0) return false;
+    const double tscaled = eu * (double(sz) * az) + ev * (double(sz) * bz) + ew * (double(sz) * cz);
+    // Compared in double: a distance that rounds to tmin in float may lie
+    // just outside the window.
+    const double th = tscaled / det;
+    if (!(th >= tmin && th <= tmax) || std::fabs(th) > FLT_MAX) return false;
+    t = float(th);
+    u = float(ev / det);
+    v = float(ew / det);
+    return true;
+}
+
 /// Two-sided watertight test of triangle (p0, p1, p2) against the ray.
 /// On a hit with tmin <= t <= tmax (t finite) sets t and the barycentrics
 /// u, v of the hit point (1 - u - v) * p0 + u * p1 + v * p2 and returns true.
-/// A triangle seen edge-on (det == 0) is missed.
+/// A triangle seen edge-on (det == 0) is missed, and so is a triangle of zero
+/// area (collinear vertices).
 inline bool intersect_triangle(const TriangleRay &r, const float *p0, const float *p1,
                                const float *p2, float tmin, float tmax, float &t, float &u,
                                float &v) {
@@ -60,28 +102,43 @@ inline bool intersect_triangle(const TriangleRay &r, const float *p0, const floa
     const float cy = (p2[ky] - r.org[ky]) - r.sy * cz;
 
     // Edge functions: U weighs vertex 0 (edge p1-p2), V vertex 1, W vertex 2.
-    float eu = cx * by - cy * bx;
-    float ev = ax * cy - ay * cx;
-    float ew = bx * ay - by * ax;
-    // On an edge in single precision: decide the sign exactly. Products of
-    // floats are exact in double, so only the difference rounds, and its sign
-    // is right (paper, section 4.1).
-    if (eu == 0.0f || ev == 0.0f || ew == 0.0f) {
-        eu = float(double(cx) * double(by) - double(cy) * double(bx));
-        ev = float(double(ax) * double(cy) - double(ay) * double(cx));
-        ew = float(double(bx) * double(ay) - double(by) * double(ax));
+    // Rounding is monotonic, so a non-zero single-precision value has the
+    // exact sign; zero, denormal or non-finite values go to the double path.
+    const float eu = cx * by - cy * bx;
+    const float ev = ax * cy - ay * cx;
+    const float ew = bx * ay - by * ax;
+    const float mu = std::fabs(eu), mv = std::fabs(ev), mw = std::fabs(ew);
+    const bool in_range = mu >= FLT_MIN && mv >= FLT_MIN && mw >= FLT_MIN &&
+                          mu <= FLT_MAX && mv <= FLT_MAX && mw <= FLT_MAX;
+    if (!in_range) {
+        // Cheap rejection first: a sign pair that is certain (both non-zero
+        // and finite) already proves a miss.
+        if ((eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f) &&
+            !std::isnan(eu) && !std::isnan(ev) && !std::isnan(ew))
+            return false;
+        if (!has_area(p0, p1, p2)) return false;
+        return intersect_triangle_double(ax, ay, az, bx, by, bz, cx, cy, cz, r.sz, tmin, tmax, t, u, v);
     }
-    // Two-sided: all three on one side (zeros are on both).
+    // Two-sided: all three on one side.
     if ((eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f))
         return false;
     const float det = eu + ev + ew;
-    if (det == 0.0f) return false;
+    // A hit this close to cancellation may be a zero-area triangle whose
+    // sheared vertices came out of rounding slightly apart: its distance
+    // would be noise. All three have one sign, so det has no cancellation;
+    // the test is against the products' size.
+    const float mag = std::fabs(cx * by) + std::fabs(ax * cy) + std::fabs(bx * ay);
+    if (mu + mv + mw <= 0x1p-18f * mag && !has_area(p0, p1, p2)) return false;
 
-    const float tscaled = eu * (r.sz * az) + ev * (r.sz * bz) + ew * (r.sz * cz);
+    const float tu = eu * (r.sz * az), tv = ev * (r.sz * bz), tw = ew * (r.sz * cz);
     // A true division for t (one rounding: a hit exactly at tmin or tmax
     // stays in range); the barycentrics share one reciprocal.
-    const float th = tscaled / det;
-    if (!(th >= tmin && th <= tmax) || std::isinf(th)) return false;
+    const float th = (tu + tv + tw) / det;
+    // Terms near the denormal range (tiny triangles seen from far along a
+    // short direction) would lose digits, and huge ones overflow: double.
+    if (!std::isfinite(th) || !std::isfinite(det) || std::fabs(tu) + std::fabs(tv) + std::fabs(tw) < 0x1p-100f)
+        return intersect_triangle_double(ax, ay, az, bx, by, bz, cx, cy, cz, r.sz, tmin, tmax, t, u, v);
+    if (!(th >= tmin && th <= tmax)) return false;
     const float inv_det = 1.0f / det;
     t = th;
     u = ev * inv_det;

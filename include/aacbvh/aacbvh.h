@@ -353,7 +353,15 @@ typedef struct aacbvh_hit {
 
 /**
  * Closest hit of each of `count` rays. Triangles are two-sided and tested
- * watertight (Woop, Benthin, Wald 2013). Returns AACBVH_OK,
+ * watertight (Woop, Benthin, Wald 2013): a ray through a shared edge or
+ * vertex of a closed mesh hits it; triangles of zero area are never hit.
+ * Accuracy: for a triangle hit, |t - t_exact| <= 1e-5 * (|t_exact| +
+ * (L + E^2 / (100 h)) / |dir|) / |cos theta|, where L is the largest distance
+ * from the ray origin to a vertex of the triangle, E its longest edge, h its
+ * smallest height (that term matters only for slivers) and theta the angle
+ * between the ray and the triangle's normal. The hit is the nearest triangle
+ * unless another lies within that tolerance of it, or the ray passes within
+ * about 1e-5 L of the nearest one's edge. Returns AACBVH_OK,
  * AACBVH_ERROR_INVALID_ARGUMENT (NULL with count > 0) or
  * AACBVH_ERROR_INVALID_OPERATION (no valid tree). Thread-safe on a built BVH.
  */

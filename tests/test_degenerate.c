@@ -1,0 +1,215 @@
+/*
+ * Degenerate geometry with every builder: zero-area triangles, collinear
+ * vertices, all triangles identical, all centroids equal (one Morton code),
+ * coordinates from 1e-30 to 1e30, one and two primitives, zero primitives,
+ * flat scenes, long thin slivers. Each scene must build, pass the tree
+ * invariants (ts_check_tree) and give the closest hits of a double-precision
+ * brute force (tests/ray_reference.h).
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "ray_reference.h"
+#include "test_support.h"
+
+static const aacbvh_builder k_builders[] = {
+    AACBVH_BUILDER_AAC_HQ,     AACBVH_BUILDER_AAC_FAST,        AACBVH_BUILDER_AAC,  AACBVH_BUILDER_SWEEP_SAH,
+    AACBVH_BUILDER_BINNED_SAH, AACBVH_BUILDER_LOCALLY_ORDERED, AACBVH_BUILDER_PLOC,
+};
+enum { BUILDER_COUNT = sizeof k_builders / sizeof k_builders[0] };
+
+/* Triangles at scales 10^e, e in [-30, 30], each centred at scale * c with
+ * c in [-1, 1]^3: the scene spans 1e-30 to 1e30. */
+static void make_full_range(size_t n, ts_mesh *m) {
+    ts_rng rng;
+    ts_rng_seed(&rng, 123);
+    m->vertex_count = 3 * n;
+    m->triangle_count = n;
+    m->vertices = malloc(9 * n * sizeof(float));
+    m->indices = malloc(3 * n * sizeof(uint32_t));
+    assert_non_null(m->vertices);
+    assert_non_null(m->indices);
+    for (size_t i = 0; i < n; ++i) {
+        const float scale = powf(10.0f, (float)((int)(i % 61) - 30));
+        float c[3];
+        for (int k = 0; k < 3; ++k) c[k] = ts_rng_range(&rng, -1.0f, 1.0f);
+        for (int j = 0; j < 3; ++j)
+            for (int k = 0; k < 3; ++k)
+                m->vertices[9 * i + 3 * j + k] = scale * (c[k] + ts_rng_range(&rng, -0.2f, 0.2f));
+        for (int j = 0; j < 3; ++j) m->indices[3 * i + j] = (uint32_t)(3 * i + j);
+    }
+}
+
+/* Rays aimed at random points of random triangles from a point at the
+ * triangle's own scale (so every decade gets rays), some from the origin. */
+static aacbvh_ray *aimed_rays(const ts_mesh *m, size_t count, uint64_t seed) {
+    aacbvh_ray *rays = malloc(count * sizeof *rays);
+    assert_non_null(rays);
+    ts_rng rng;
+    ts_rng_seed(&rng, seed);
+    for (size_t i = 0; i < count; ++i) {
+        aacbvh_ray *r = &rays[i];
+        const size_t tri = ts_rng_below(&rng, (uint32_t)m->triangle_count);
+        const float *v[3];
+        double extent = 0.0;
+        for (int j = 0; j < 3; ++j) v[j] = m->vertices + 3 * (size_t)m->indices[3 * tri + j];
+        for (int j = 0; j < 3; ++j)
+            for (int k = 0; k < 3; ++k) extent = fmax(extent, fabs((double)v[j][k]));
+        if (extent == 0.0) extent = 1.0;
+        float u = ts_rng_float(&rng), w = ts_rng_float(&rng);
+        if (u + w > 1.0f) { u = 1.0f - u; w = 1.0f - w; }
+        for (int k = 0; k < 3; ++k) {
+            const float target = (1.0f - u - w) * v[0][k] + u * v[1][k] + w * v[2][k];
+            r->org[k] = (i % 5 == 0) ? 0.0f : (float)(extent * ts_rng_range(&rng, -3.0f, 3.0f));
+            r->dir[k] = target - r->org[k];
+        }
+        if (r->dir[0] == 0.0f && r->dir[1] == 0.0f && r->dir[2] == 0.0f) r->dir[2] = 1.0f;
+        r->tmin = 0.0f;
+        r->tmax = INFINITY;
+    }
+    return rays;
+}
+
+/* Builders in skip_mask (bit = builder value) are left out; see the caller. */
+static void check_scene(const char *name, const ts_mesh *m, size_t ray_count, unsigned skip_mask) {
+    float *boxes = m->triangle_count ? ts_mesh_boxes(m) : NULL;
+    aacbvh_ray *rays = m->triangle_count ? aimed_rays(m, ray_count, 11) : NULL;
+    aacbvh_hit *hits = malloc((ray_count ? ray_count : 1) * sizeof *hits);
+    assert_non_null(hits);
+    if (!rays) {
+        /* Empty scene: rays of every kind, all must miss. */
+        rays = malloc(ray_count * sizeof *rays);
+        assert_non_null(rays);
+        for (size_t i = 0; i < ray_count; ++i) {
+            aacbvh_ray r = {{0.0f, 0.0f, 0.0f}, 0.0f, {1.0f, (float)i, -1.0f}, INFINITY};
+            rays[i] = r;
+        }
+    }
+    for (size_t b = 0; b < BUILDER_COUNT; ++b)
+        for (int leaf = 1; leaf <= 4; leaf += 3) {
+            if (skip_mask & (1u << k_builders[b])) continue;
+            aacbvh_context *ctx;
+            aacbvh_bvh *bvh;
+            char msg[256];
+            ts_create(2, &ctx, &bvh);
+            TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, k_builders[b]), AACBVH_OK);
+            TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_MAX_LEAF_SIZE, leaf), AACBVH_OK);
+            TS_EXPECT_STATUS(aacbvh_bvh_set_triangles(bvh, m->vertices, m->vertex_count, 12, m->indices,
+                                                      m->triangle_count),
+                             AACBVH_OK);
+            if (aacbvh_bvh_build(bvh) != AACBVH_OK)
+                fail_msg("%s, builder %d: build failed: %s", name, (int)k_builders[b], aacbvh_bvh_last_error(bvh));
+            if (!ts_check_tree(bvh, boxes, m->triangle_count, NULL, (uint32_t)leaf, msg, sizeof msg))
+                fail_msg("%s, builder %d, leaf %d: %s", name, (int)k_builders[b], leaf, msg);
+            TS_EXPECT_STATUS(aacbvh_bvh_intersect(bvh, rays, hits, ray_count), AACBVH_OK);
+            for (size_t i = 0; i < ray_count; ++i) {
+                if (!rr_check_hit(&rays[i], &hits[i], m->vertices, 3, m->indices, m->triangle_count, msg, sizeof msg,
+                                  NULL))
+                    fail_msg("%s, builder %d, leaf %d, ray %zu: %s", name, (int)k_builders[b], leaf, i, msg);
+            }
+            aacbvh_bvh_destroy(bvh);
+            aacbvh_context_destroy(ctx);
+        }
+    free(boxes);
+    free(rays);
+    free(hits);
+}
+
+static void run_kind(ts_scene_kind kind, size_t n) {
+    ts_mesh m;
+    assert_true(ts_make_scene(kind, n, 42, &m));
+    check_scene(ts_scene_name(kind), &m, 600, 0);
+    ts_mesh_free(&m);
+}
+
+static void test_zero_area(void **state) { (void)state; run_kind(TS_SCENE_ZERO_AREA, 400); }
+static void test_identical(void **state) { (void)state; run_kind(TS_SCENE_IDENTICAL, 300); }
+static void test_same_centroid(void **state) { (void)state; run_kind(TS_SCENE_SAME_CENTROID, 400); }
+static void test_flat(void **state) { (void)state; run_kind(TS_SCENE_FLAT, 400); }
+static void test_slivers(void **state) { (void)state; run_kind(TS_SCENE_SLIVERS, 400); }
+static void test_wide_range(void **state) { (void)state; run_kind(TS_SCENE_WIDE_RANGE, 400); }
+
+static void test_full_float_range(void **state) {
+    (void)state;
+    ts_mesh m;
+    memset(&m, 0, sizeof m);
+    make_full_range(366, &m);
+    /* KNOWN BUG (lib/locally_ordered_builder.cpp, reported): with boxes whose
+     * union's surface area overflows float, the locally-ordered builder fails
+     * with AACBVH_ERROR_INTERNAL ("vector::_M_default_append"). Left out here
+     * until fixed; remove the mask then. */
+    check_scene("1e-30 to 1e30", &m, 1200, 1u << AACBVH_BUILDER_LOCALLY_ORDERED);
+    ts_mesh_free(&m);
+}
+
+/* Exactly collinear vertices with non-dyadic spacing, mixed with real triangles. */
+static void test_collinear_mixed(void **state) {
+    (void)state;
+    ts_mesh zero, real, m;
+    assert_true(ts_make_scene(TS_SCENE_ZERO_AREA, 200, 3, &zero));
+    assert_true(ts_make_scene(TS_SCENE_RANDOM, 200, 4, &real));
+    m.vertex_count = zero.vertex_count + real.vertex_count;
+    m.triangle_count = zero.triangle_count + real.triangle_count;
+    m.vertices = malloc(3 * m.vertex_count * sizeof(float));
+    m.indices = malloc(3 * m.triangle_count * sizeof(uint32_t));
+    assert_non_null(m.vertices);
+    assert_non_null(m.indices);
+    memcpy(m.vertices, zero.vertices, 3 * zero.vertex_count * sizeof(float));
+    memcpy(m.vertices + 3 * zero.vertex_count, real.vertices, 3 * real.vertex_count * sizeof(float));
+    for (size_t i = 0; i < 3 * zero.triangle_count; ++i) m.indices[i] = zero.indices[i];
+    for (size_t i = 0; i < 3 * real.triangle_count; ++i)
+        m.indices[3 * zero.triangle_count + i] = real.indices[i] + (uint32_t)zero.vertex_count;
+    check_scene("collinear + random", &m, 800, 0);
+    ts_mesh_free(&m);
+    ts_mesh_free(&zero);
+    ts_mesh_free(&real);
+}
+
+static void test_one_and_two_primitives(void **state) {
+    (void)state;
+    for (size_t n = 1; n <= 2; ++n) {
+        ts_mesh m;
+        assert_true(ts_make_scene(TS_SCENE_RANDOM, n, 8 + n, &m));
+        check_scene(n == 1 ? "one triangle" : "two triangles", &m, 400, 0);
+        ts_mesh_free(&m);
+        assert_true(ts_make_scene(TS_SCENE_IDENTICAL, n, 8, &m));
+        check_scene(n == 1 ? "one triangle (identical)" : "two identical triangles", &m, 400, 0);
+        ts_mesh_free(&m);
+    }
+}
+
+static void test_zero_primitives(void **state) {
+    (void)state;
+    ts_mesh m;
+    memset(&m, 0, sizeof m);
+    check_scene("empty", &m, 50, 0);
+    /* Vertices but no triangles. */
+    const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    m.vertices = (float *)v;
+    m.vertex_count = 3;
+    check_scene("vertices, no triangles", &m, 50, 0);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_zero_area),
+        cmocka_unit_test(test_collinear_mixed),
+        cmocka_unit_test(test_identical),
+        cmocka_unit_test(test_same_centroid),
+        cmocka_unit_test(test_flat),
+        cmocka_unit_test(test_slivers),
+        cmocka_unit_test(test_wide_range),
+        cmocka_unit_test(test_full_float_range),
+        cmocka_unit_test(test_one_and_two_primitives),
+        cmocka_unit_test(test_zero_primitives),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
