@@ -16,7 +16,6 @@
 #include "builders.h"
 #include "cluster_combine.h"
 #include "morton.h"
-#include "radix_sort.h"
 
 namespace aacbvh {
 
@@ -109,32 +108,14 @@ private:
     std::vector<uint32_t> small_targets_;
 };
 
-/// 1 / largest extent of the scene: distances are computed on boxes of about
-/// unit size, so neither 1e30 nor 1e-30 coordinates leave the float range.
-float distance_scale(const Box &bounds) {
-    const double extent = std::max({double(bounds.hi[0]) - bounds.lo[0], double(bounds.hi[1]) - bounds.lo[1],
-                                    double(bounds.hi[2]) - bounds.lo[2]});
-    if (!(extent > 0.0) || !std::isfinite(extent)) return 1.0f;
-    return float(1.0 / extent);
-}
-
 } // namespace
 
 void build_aac(const BuildInput &input, const AacConfig &config, const FlattenRule &rule, BuildContext &ctx,
                BinaryTree &out, SubtreeChoices &choices) {
     const uint32_t n = uint32_t(input.size());
-    Array<uint64_t> codes(n);
-    Array<uint32_t> order(n);
-    const MortonQuantizer quantizer(input.centroid_bounds);
-    ctx.scheduler().parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
-        for (size_t i = b; i < e; ++i) {
-            const Box &box = input.boxes[i];
-            const float c[3] = {box.centroid(0), box.centroid(1), box.centroid(2)};
-            codes[i] = quantizer.code(c);
-            order[i] = uint32_t(i);
-        }
-    });
-    radix_sort_pairs(codes, order, 63, ctx.scheduler());
+    Array<uint64_t> codes;
+    Array<uint32_t> order;
+    sort_by_morton_code(input, ctx.scheduler(), codes, order);
     ctx.report(0.3);
 
     out.resize(n);

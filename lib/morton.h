@@ -6,6 +6,9 @@
 #include <cstdint>
 
 #include "box.h"
+#include "build_input.h"
+#include "memory.h"
+#include "scheduler.h"
 
 namespace aacbvh {
 
@@ -51,5 +54,11 @@ private:
     double origin_[3];
     double scale_[3];
 };
+
+/// Sorts the input's primitives by the Morton codes of their box centroids
+/// (quantised in input.centroid_bounds): codes[i] is the i-th smallest code
+/// and order[i] the input entry it belongs to. Equal codes keep input order.
+void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<uint64_t> &codes,
+                         Array<uint32_t> &order);
 
 } // namespace aacbvh
