@@ -122,10 +122,13 @@ void BvhObject::build() {
     } else {
         build_peak_bytes_ = 0;
     }
+    WideBvh wide;
+    if (params.layout == AACBVH_LAYOUT_WIDE4) wide.build(result);
     ctx.report(1.0);
 
     // Success: only now does the handle change.
     bvh_ = std::move(result);
+    wide_ = std::move(wide);
     invalid_count_ = input.invalid_count;
     built_kind_ = geometry_.kind;
     built_primitive_count_ = geometry_.primitive_count;
@@ -154,7 +157,14 @@ void BvhObject::refit() {
     if (bad != SIZE_MAX)
         throw Error(AACBVH_ERROR_INVALID_GEOMETRY, std::string(geometry_.kind == GeometryKind::Boxes ? "box " : "triangle ") +
                                                        std::to_string(bad) + " " + primitive_problem(geometry_, bad));
+    // The wide tree is made before the refit can change anything (the
+    // topology is the same), then takes the refitted boxes.
+    if (params.layout != AACBVH_LAYOUT_WIDE4)
+        wide_.clear();
+    else if (!wide_.built())
+        wide_.build(bvh_);
     refit_tree(bvh_, geometry_, scheduler_);
+    if (wide_.built()) wide_.refit(bvh_, scheduler_);
     valid_ = true;
 }
 
@@ -172,7 +182,7 @@ void BvhObject::stats(aacbvh_stats &out) const {
     out.leaf_count = f.leaf_count;
     out.primitive_count = bvh_.prim_ids.size();
     out.sah_cost = f.sah_cost;
-    out.memory_bytes = sizeof(*this) + bvh_.memory_bytes();
+    out.memory_bytes = sizeof(*this) + bvh_.memory_bytes() + wide_.memory_bytes();
     out.invalid_primitive_count = invalid_count_;
     out.build_peak_bytes = build_peak_bytes_;
     out.built_sah_cost = built_sah_cost_;
@@ -182,14 +192,20 @@ void BvhObject::stats(aacbvh_stats &out) const {
 void BvhObject::intersect(const aacbvh_ray *rays, aacbvh_hit *hits, size_t count) const {
     require_tree();
     scheduler_.parallel_for(0, count, 1024, [&](size_t b, size_t e) {
-        for (size_t i = b; i < e; ++i) intersect_ray(bvh_, geometry_, rays[i], hits[i]);
+        if (wide_.built())
+            for (size_t i = b; i < e; ++i) intersect_ray_wide(wide_, bvh_, geometry_, rays[i], hits[i]);
+        else
+            for (size_t i = b; i < e; ++i) intersect_ray(bvh_, geometry_, rays[i], hits[i]);
     });
 }
 
 void BvhObject::occluded(const aacbvh_ray *rays, uint8_t *out, size_t count) const {
     require_tree();
     scheduler_.parallel_for(0, count, 1024, [&](size_t b, size_t e) {
-        for (size_t i = b; i < e; ++i) out[i] = occluded_ray(bvh_, geometry_, rays[i]) ? 1 : 0;
+        if (wide_.built())
+            for (size_t i = b; i < e; ++i) out[i] = occluded_ray_wide(wide_, bvh_, geometry_, rays[i]) ? 1 : 0;
+        else
+            for (size_t i = b; i < e; ++i) out[i] = occluded_ray(bvh_, geometry_, rays[i]) ? 1 : 0;
     });
 }
 

@@ -11,6 +11,7 @@
 #include "geometry.h"
 #include "params.h"
 #include "scheduler.h"
+#include "wide_bvh.h"
 
 namespace aacbvh {
 
@@ -46,6 +47,7 @@ private:
     Geometry geometry_;
     bool geometry_set_ = false;
     Bvh bvh_;
+    WideBvh wide_; ///< built when params.layout was AACBVH_LAYOUT_WIDE4 at the last build or refit
     bool valid_ = false;        ///< bvh_ matches geometry_ (built or refitted since the last set)
     bool has_topology_ = false; ///< bvh_ holds a tree (possibly stale)
     GeometryKind built_kind_ = GeometryKind::None;

@@ -148,7 +148,9 @@ bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, fl
             bool next = false;
             while (!stack.empty()) {
                 const NodeStack::Entry e = stack.pop();
-                if (e.t <= tmax) {
+                // The entry distance is rounded and may land a few ulps past a
+                // hit inside the box: widen as the box test widens its exit.
+                if (e.t <= tmax + std::fabs(tmax) * kTwoGamma3) {
                     current = e.node;
                     next = true;
                     break;

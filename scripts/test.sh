@@ -11,6 +11,24 @@ set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
 require_tools cmake c++ cc make pkg-config nm readelf
+
+# Tools that some tests need, installed here when possible (CI runs this as
+# root on Debian, after the README command's apt-get update); without them
+# those tests report themselves skipped.
+#   abigail-tools (abidiff): abi_baseline, the ABI against tests/abi/libaacbvh.abi
+#   python3: python_binding and python_example, the ctypes binding in examples/python
+optional=()
+command -v abidiff > /dev/null 2>&1 || optional+=(abigail-tools)
+command -v python3 > /dev/null 2>&1 || optional+=(python3)
+if [ ${#optional[@]} -gt 0 ]; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get > /dev/null 2>&1; then
+        log "installing ${optional[*]} for the ABI and Python binding tests"
+        DEBIAN_FRONTEND=noninteractive apt-get install -y "${optional[@]}" ||
+            echo "could not install ${optional[*]}: their tests will be skipped" >&2
+    else
+        echo "not installed: ${optional[*]} (apt-get install -y ${optional[*]}): their tests will be skipped" >&2
+    fi
+fi
 failed=()
 probe_dir=$(mktemp -d)
 trap 'rm -rf "$probe_dir"' EXIT

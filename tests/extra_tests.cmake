@@ -37,6 +37,12 @@ if(AACBVH_BUILD_EXAMPLES)
   add_test(NAME example_demo_small
     COMMAND aacbvh-demo --small --runs 2 --builders all --threads 2)
   set_tests_properties(example_demo_small PROPERTIES TIMEOUT 300)
+  # The game-engine loop, a few frames with a low threshold so that both the
+  # refit and the rebuild paths run; it checks its refitted tree against a fresh build.
+  add_test(NAME example_animated
+    COMMAND animated --frames 12 --triangles 20000 --threads 2 --threshold 1.05)
+  set_tests_properties(example_animated PROPERTIES
+    PASS_REGULAR_EXPRESSION "refitted tree and fresh build agree" TIMEOUT 300)
 endif()
 
 # ---- install, then use through pkg-config and find_package ----
@@ -53,3 +59,7 @@ if(NOT AACBVH_SANITIZE)
   set_tests_properties(install_relocated install_absolute_libdir PROPERTIES
     TIMEOUT 900 RESOURCE_LOCK aacbvh_install)
 endif()
+
+# ---- ABI against the committed baseline (libabigail), Python ctypes binding ----
+add_subdirectory(${CMAKE_CURRENT_SOURCE_DIR}/abi ${CMAKE_CURRENT_BINARY_DIR}/abi)
+add_subdirectory(${CMAKE_CURRENT_SOURCE_DIR}/python ${CMAKE_CURRENT_BINARY_DIR}/python)

@@ -69,7 +69,7 @@ libdir=$(pkg-config --variable=libdir aacbvh)
 out=$(LD_LIBRARY_PATH=$libdir "$work/c-minimal")
 echo "$out"
 echo "$out" | grep -q "^libaacbvh $version\$" || fail "c-minimal does not report version $version"
-echo "$out" | grep -q "^hit triangle" || fail "c-minimal did not hit"
+echo "$out" | grep -qxF "hit triangle 1 at t = 1 (u = 0.25, v = 0.5)" || fail "c-minimal did not print the expected hit"
 # The program must have used the installed library, not the build tree's.
 LD_LIBRARY_PATH=$libdir ldd "$work/c-minimal" | grep -q "$libdir/libaacbvh.so" ||
     fail "c-minimal did not load $libdir/libaacbvh.so"

@@ -63,9 +63,12 @@ extern "C" {
     AACBVH_VERSION_STRINGIFY(AACBVH_VERSION_MINOR) "." \
     AACBVH_VERSION_STRINGIFY(AACBVH_VERSION_PATCH)
 
-/** The library's version as major * 10000 + minor * 100 + patch, at run time. */
+/** The library's version as major * 10000 + minor * 100 + patch, at run time.
+ *  Thread-safe (like every call that takes no handle, except the create and
+ *  destroy calls, which follow the handle rules). */
 AACBVH_API unsigned aacbvh_version_number(void);
-/** The library's version as "major.minor.patch", at run time. Static storage. */
+/** The library's version as "major.minor.patch", at run time. Static storage
+ *  (never free it). Thread-safe. */
 AACBVH_API const char *aacbvh_version_string(void);
 
 /* ===================================================================== */
@@ -83,7 +86,8 @@ typedef enum aacbvh_status {
     AACBVH_STATUS_MAX_ENUM = 0x7FFFFFFF
 } aacbvh_status;
 
-/** A short English name of a status ("AACBVH_OK", ...). Static storage; never NULL. */
+/** A short English name of a status ("AACBVH_OK", ...; "unknown aacbvh_status" for
+ *  values not listed). Static storage (never free it); never NULL. Thread-safe. */
 AACBVH_API const char *aacbvh_status_string(aacbvh_status status);
 
 /* ===================================================================== */
@@ -100,13 +104,15 @@ typedef struct aacbvh_bvh aacbvh_bvh;
  * included); 0 means one per available core.
  * Returns AACBVH_OK, AACBVH_ERROR_INVALID_ARGUMENT (out is NULL, or
  * thread_count > 1024) or AACBVH_ERROR_OUT_OF_MEMORY. On failure *out is NULL.
+ * The caller owns the context and frees it with aacbvh_context_destroy().
+ * Thread-safe: contexts may be created from any thread.
  */
 AACBVH_API aacbvh_status aacbvh_context_create(uint32_t thread_count, aacbvh_context **out);
-/** Number of threads the context runs builds on (>= 1); 0 for NULL. */
+/** Number of threads the context runs builds on (>= 1); 0 for NULL. Thread-safe. */
 AACBVH_API uint32_t aacbvh_context_thread_count(const aacbvh_context *context);
 /**
  * Destroys a context and joins its threads. Accepts NULL. Every BVH created
- * on it must have been destroyed first.
+ * on it must have been destroyed first, and no other call may use it meanwhile.
  */
 AACBVH_API void aacbvh_context_destroy(aacbvh_context *context);
 
@@ -114,15 +120,18 @@ AACBVH_API void aacbvh_context_destroy(aacbvh_context *context);
  * Creates an empty BVH on `context` (which must outlive it), with default
  * parameters (AAC-HQ, leaves of at most 4 primitives).
  * Returns AACBVH_OK, AACBVH_ERROR_INVALID_ARGUMENT (a NULL argument) or
- * AACBVH_ERROR_OUT_OF_MEMORY. On failure *out is NULL.
+ * AACBVH_ERROR_OUT_OF_MEMORY. On failure *out is NULL. The caller owns the BVH
+ * and frees it with aacbvh_bvh_destroy(). Thread-safe: several threads may
+ * create BVHs on one context at once.
  */
 AACBVH_API aacbvh_status aacbvh_bvh_create(aacbvh_context *context, aacbvh_bvh **out);
-/** Destroys a BVH. Accepts NULL. */
+/** Destroys a BVH and everything it allocated (never the caller's geometry
+ *  buffers). Accepts NULL. No other call may use the handle meanwhile. */
 AACBVH_API void aacbvh_bvh_destroy(aacbvh_bvh *bvh);
 /**
  * The message of the last failed call on this handle: never NULL, non-empty
  * after any failure, "" if nothing has failed yet (and "invalid handle" for a
- * NULL bvh). Valid until the next call on the handle.
+ * NULL bvh). Owned by the handle: valid until the next call on the handle.
  */
 AACBVH_API const char *aacbvh_bvh_last_error(const aacbvh_bvh *bvh);
 
@@ -232,6 +241,8 @@ AACBVH_API aacbvh_status aacbvh_bvh_set_triangles(aacbvh_bvh *bvh,
  * floats min x, y, z, max x, y, z at byte offset i * stride_bytes (stride >= 24
  * and a multiple of 4). Same lifetime and validity rules as
  * aacbvh_bvh_set_triangles(); a box with min > max on an axis is invalid.
+ * Returns AACBVH_OK or AACBVH_ERROR_INVALID_ARGUMENT (NULL with a nonzero
+ * count, bad stride, counts that overflow or exceed 2^32 - 2).
  */
 AACBVH_API aacbvh_status aacbvh_bvh_set_boxes(aacbvh_bvh *bvh, const float *boxes,
                                               size_t box_count, size_t stride_bytes);
@@ -241,13 +252,22 @@ AACBVH_API aacbvh_status aacbvh_bvh_set_boxes(aacbvh_bvh *bvh, const float *boxe
 /* ===================================================================== */
 
 /**
- * Progress callback: called from the building thread with the fraction done
- * in [0, 1]; return false to cancel the build.
+ * Progress callback: called on the thread that called aacbvh_bvh_build(), with
+ * the fraction done in [0, 1]. Fractions never decrease; a build that succeeds
+ * reports 0 first and 1 last. Calls come between the build's phases and, in
+ * the AAC builders and the final flattening, also every few milliseconds
+ * during the phase; the other builders check for a cancel only at the next
+ * phase boundary. Return true to go on, false to cancel: the build then stops
+ * promptly, frees what it allocated, returns AACBVH_ERROR_CANCELLED and keeps
+ * the previous tree, and the callback is not called again by that build. It
+ * must not call into the same BVH handle.
  */
 typedef bool (*aacbvh_progress_fn)(void *user_data, double fraction_done);
 
-/** Installs (or, with fn NULL, removes) a progress callback. Returns AACBVH_OK or
- *  AACBVH_ERROR_INVALID_ARGUMENT (bvh NULL). */
+/** Installs (or, with fn NULL, removes) a progress callback for the handle's
+ *  later builds. The library only passes user_data back to fn; both must stay
+ *  valid while installed. Returns AACBVH_OK or AACBVH_ERROR_INVALID_ARGUMENT
+ *  (bvh NULL). */
 AACBVH_API aacbvh_status aacbvh_bvh_set_progress_callback(aacbvh_bvh *bvh, aacbvh_progress_fn fn,
                                                           void *user_data);
 
@@ -256,7 +276,10 @@ AACBVH_API aacbvh_status aacbvh_bvh_set_progress_callback(aacbvh_bvh *bvh, aacbv
  * Zero primitives give an empty tree (node count 0) whose rays all miss.
  * Returns AACBVH_OK, AACBVH_ERROR_INVALID_ARGUMENT (bvh NULL),
  * AACBVH_ERROR_INVALID_GEOMETRY, AACBVH_ERROR_OUT_OF_MEMORY or
- * AACBVH_ERROR_CANCELLED. On failure the previous tree, if any, is kept as it was.
+ * AACBVH_ERROR_CANCELLED. On failure the previous tree, if any, is kept as it
+ * was, and everything the failed build allocated is freed. Runs on the
+ * context's threads and returns when done. aacbvh_stats.build_peak_bytes
+ * reports its peak memory.
  */
 AACBVH_API aacbvh_status aacbvh_bvh_build(aacbvh_bvh *bvh);
 
@@ -267,7 +290,10 @@ AACBVH_API aacbvh_status aacbvh_bvh_build(aacbvh_bvh *bvh);
  * AACBVH_ERROR_INVALID_ARGUMENT (bvh NULL), AACBVH_ERROR_INVALID_OPERATION
  * (never built, or the primitive count changed) or
  * AACBVH_ERROR_INVALID_GEOMETRY (a coordinate became NaN or infinite; the tree
- * is then kept as it was).
+ * is then kept as it was). Runs on the context's threads. The topology of the
+ * last build is kept, so quality drops as primitives move apart: after a
+ * refit, aacbvh_stats.sah_cost / aacbvh_stats.built_sah_cost tells how much,
+ * which is what decides when to build again instead (README.md, "Animation").
  */
 AACBVH_API aacbvh_status aacbvh_bvh_refit(aacbvh_bvh *bvh);
 
@@ -294,7 +320,9 @@ typedef struct aacbvh_stats {
  * Fills *out. The caller sets out->struct_size = sizeof(aacbvh_stats) first;
  * an older, smaller struct gets the fields that fit. Returns AACBVH_OK,
  * AACBVH_ERROR_INVALID_ARGUMENT (NULL, or struct_size too small) or
- * AACBVH_ERROR_INVALID_OPERATION (no valid tree).
+ * AACBVH_ERROR_INVALID_OPERATION (no valid tree). It walks the tree on the
+ * calling thread (time linear in the node count) to measure the SAH cost with
+ * the costs in force and the depth.
  */
 AACBVH_API aacbvh_status aacbvh_bvh_get_stats(const aacbvh_bvh *bvh, aacbvh_stats *out);
 
@@ -364,6 +392,8 @@ typedef struct aacbvh_hit {
  * about 1e-5 L of the nearest one's edge. Returns AACBVH_OK,
  * AACBVH_ERROR_INVALID_ARGUMENT (NULL with count > 0) or
  * AACBVH_ERROR_INVALID_OPERATION (no valid tree). Thread-safe on a built BVH.
+ * The caller owns both arrays; they are used only during the call, which runs
+ * on the context's threads.
  */
 AACBVH_API aacbvh_status aacbvh_bvh_intersect(const aacbvh_bvh *bvh, const aacbvh_ray *rays,
                                               aacbvh_hit *hits, size_t count);
