@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cfloat>
+#include <cmath>
 
 namespace aacbvh {
 
@@ -61,6 +62,30 @@ inline float union_half_area(const Box &a, const Box &b) {
     const float dy = std::max(a.hi[1], b.hi[1]) - std::min(a.lo[1], b.lo[1]);
     const float dz = std::max(a.hi[2], b.hi[2]) - std::min(a.lo[2], b.lo[2]);
     return dx * dy + dy * dz + dz * dx;
+}
+
+/// 1 / largest extent of a scene's bounds: clustering distances computed on
+/// extents times this are of about unit size, so neither 1e30 nor 1e-30
+/// coordinates leave the float range. 1 for an empty, flat-point or infinite
+/// scene; at most FLT_MAX (an extent of a few denormals would give +inf, and
+/// inf * 0 distances that are NaN).
+inline float distance_scale(const Box &bounds) {
+    const double extent = std::max({double(bounds.hi[0]) - bounds.lo[0], double(bounds.hi[1]) - bounds.lo[1],
+                                    double(bounds.hi[2]) - bounds.lo[2]});
+    if (!(extent > 0.0) || !std::isfinite(extent)) return 1.0f;
+    return float(std::min(1.0 / extent, double(FLT_MAX)));
+}
+
+/// union_half_area on extents scaled by `scale` (distance_scale()), the
+/// arithmetic of AAC's distance rows. Never NaN: an extent that still
+/// overflows (a scene wider than FLT_MAX) times a zero one gives +inf, so
+/// every comparison of distances stays a total order.
+inline float scaled_union_half_area(const Box &a, const Box &b, float scale) {
+    const float dx = (std::max(a.hi[0], b.hi[0]) - std::min(a.lo[0], b.lo[0])) * scale;
+    const float dy = (std::max(a.hi[1], b.hi[1]) - std::min(a.lo[1], b.lo[1])) * scale;
+    const float dz = (std::max(a.hi[2], b.hi[2]) - std::min(a.lo[2], b.lo[2])) * scale;
+    const float d = dx * dy + dy * dz + dz * dx;
+    return d == d ? d : INFINITY;
 }
 
 } // namespace aacbvh
