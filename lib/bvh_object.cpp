@@ -134,6 +134,10 @@ void BvhObject::build() {
     built_primitive_count_ = geometry_.primitive_count;
     has_topology_ = true;
     valid_ = true;
+    {
+        std::lock_guard<std::mutex> lock(figures_mutex_);
+        figures_known_ = false; // measured on the first stats call
+    }
     built_sah_cost_ = sah_cost;
     build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -164,6 +168,12 @@ void BvhObject::refit() {
     else if (!wide_.built())
         wide_.build(bvh_);
     refit_tree(bvh_, geometry_, scheduler_);
+    {
+        // Leaf count and depth stay (same topology); the areas are summed now,
+        // so that stats in a refit loop cost nothing more.
+        std::lock_guard<std::mutex> lock(figures_mutex_);
+        if (figures_known_) figures_.areas = sum_areas(bvh_, scheduler_);
+    }
     if (wide_.built()) wide_.refit(bvh_, scheduler_);
     valid_ = true;
 }
@@ -174,14 +184,23 @@ void BvhObject::require_tree() const {
     throw Error(AACBVH_ERROR_INVALID_OPERATION, "the geometry changed since the last build: build or refit first");
 }
 
+TreeFigures BvhObject::figures() const {
+    std::lock_guard<std::mutex> lock(figures_mutex_);
+    if (!figures_known_) {
+        figures_ = measure_tree(bvh_, scheduler_);
+        figures_known_ = true;
+    }
+    return figures_;
+}
+
 void BvhObject::stats(aacbvh_stats &out) const {
     require_tree();
-    const TreeFigures f = measure_tree(bvh_, params.traversal_cost, params.intersection_cost);
+    const TreeFigures f = figures();
     out.max_depth = f.max_depth;
     out.node_count = bvh_.nodes.size();
     out.leaf_count = f.leaf_count;
     out.primitive_count = bvh_.prim_ids.size();
-    out.sah_cost = f.sah_cost;
+    out.sah_cost = f.areas.sah_cost(params.traversal_cost, params.intersection_cost);
     out.memory_bytes = sizeof(*this) + bvh_.memory_bytes() + wide_.memory_bytes();
     out.invalid_primitive_count = invalid_count_;
     out.build_peak_bytes = build_peak_bytes_;

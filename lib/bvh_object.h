@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <mutex>
 
 #include "aacbvh/aacbvh.h"
 #include "bvh.h"
@@ -37,6 +38,9 @@ public:
     Scheduler &scheduler() const { return scheduler_; }
 
     void stats(aacbvh_stats &out) const;
+    /// Leaf count, depth and SAH area sums, measured once per build and kept
+    /// current by refit, so that stats are O(1) in a refit loop.
+    TreeFigures figures() const;
     void intersect(const aacbvh_ray *rays, aacbvh_hit *hits, size_t count) const;
     void occluded(const aacbvh_ray *rays, uint8_t *out, size_t count) const;
 
@@ -56,6 +60,9 @@ private:
     uint64_t build_peak_bytes_ = 0;
     double built_sah_cost_ = 0.0;
     double build_seconds_ = 0.0;
+    mutable std::mutex figures_mutex_; // stats may be read from several threads
+    mutable bool figures_known_ = false;
+    mutable TreeFigures figures_;
     aacbvh_progress_fn progress_ = nullptr;
     void *progress_user_ = nullptr;
 };
