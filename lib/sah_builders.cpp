@@ -53,7 +53,7 @@ void split_all(BuildContext &ctx, RangeTask root, const Split &split) {
         const RangeTask task = stack.back();
         stack.pop_back();
         if (--until_poll == 0) {
-            ctx.check_cancelled();
+            ctx.poll();
             until_poll = kCancelPoll;
         }
         if (task.size() < 2) {
@@ -125,7 +125,7 @@ public:
         goes_left_.resize(n_);
         Scheduler &s = ctx_.scheduler();
         s.fork_join([&] { sort_axis(0); }, [&] { s.fork_join([&] { sort_axis(1); }, [&] { sort_axis(2); }); });
-        ctx_.check_cancelled();
+        ctx_.poll();
 
         split_all(ctx_, RangeTask{0, n_, &out_.root, Box::empty(), Box::empty()},
                   [this](const RangeTask &t, RangeTask &l, RangeTask &r) { split(t, l, r); });
