@@ -6,8 +6,7 @@
 #include <cmath>
 #include <vector>
 
-#include "ray_box.h"
-#include "triangle_intersect.h"
+#include "ray_primitives.h"
 
 namespace aacbvh {
 
@@ -46,43 +45,6 @@ private:
     size_t size_ = 0;
     Entry fixed_[kFixed];
     std::vector<Entry> overflow_;
-};
-
-bool ray_is_valid(const aacbvh_ray &ray) {
-    for (int k = 0; k < 3; ++k)
-        if (!std::isfinite(ray.org[k]) || !std::isfinite(ray.dir[k])) return false;
-    if (std::isnan(ray.tmin) || std::isnan(ray.tmax)) return false;
-    return ray.dir[0] != 0.0f || ray.dir[1] != 0.0f || ray.dir[2] != 0.0f;
-}
-
-void set_miss(aacbvh_hit &hit) {
-    hit.t = INFINITY;
-    hit.u = 0.0f;
-    hit.v = 0.0f;
-    hit.prim_id = AACBVH_INVALID_ID;
-}
-
-struct TrianglePrimitives {
-    const Geometry &geometry;
-    TriangleRay ray;
-
-    bool intersect(uint32_t prim, float tmin, float tmax, float &t, float &u, float &v) const {
-        const float *p[3];
-        geometry.triangle(prim, p);
-        return intersect_triangle(ray, p[0], p[1], p[2], tmin, tmax, t, u, v);
-    }
-};
-
-struct BoxPrimitives {
-    const Geometry &geometry;
-    const BoxRay &ray;
-
-    bool intersect(uint32_t prim, float tmin, float tmax, float &t, float &u, float &v) const {
-        const float *b = geometry.box_ptr(prim);
-        u = 0.0f;
-        v = 0.0f;
-        return ray_box_primitive(ray, b, b + 3, tmin, tmax, t);
-    }
 };
 
 /// Closest hit (AnyHit false) or any hit (AnyHit true) of a valid ray over a

@@ -13,8 +13,7 @@
 #include <new>
 #include <vector>
 
-#include "ray_box.h"
-#include "triangle_intersect.h"
+#include "ray_primitives.h"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -142,19 +141,7 @@ void WideBvh::refit(const Bvh &bvh, Scheduler &scheduler) {
 namespace {
 
 // The same checks and miss record as the binary traversal (lib/traversal.cpp).
-bool ray_is_valid(const aacbvh_ray &ray) {
-    for (int k = 0; k < 3; ++k)
-        if (!std::isfinite(ray.org[k]) || !std::isfinite(ray.dir[k])) return false;
-    if (std::isnan(ray.tmin) || std::isnan(ray.tmax)) return false;
-    return ray.dir[0] != 0.0f || ray.dir[1] != 0.0f || ray.dir[2] != 0.0f;
-}
 
-void set_miss(aacbvh_hit &hit) {
-    hit.t = INFINITY;
-    hit.u = 0.0f;
-    hit.v = 0.0f;
-    hit.prim_id = AACBVH_INVALID_ID;
-}
 
 /// Per-ray constants of the four-box test, taken from make_box_ray() so the
 /// slab distances are the binary test's: near[a] / far[a] are the rows of
@@ -295,29 +282,6 @@ inline void prefetch_node(const WideNode *nodes, uint32_t child, uint32_t count)
     (void)count;
 #endif
 }
-
-struct TrianglePrimitives {
-    const Geometry &geometry;
-    TriangleRay ray;
-
-    bool intersect(uint32_t prim, float tmin, float tmax, float &t, float &u, float &v) const {
-        const float *p[3];
-        geometry.triangle(prim, p);
-        return intersect_triangle(ray, p[0], p[1], p[2], tmin, tmax, t, u, v);
-    }
-};
-
-struct BoxPrimitives {
-    const Geometry &geometry;
-    const BoxRay &ray;
-
-    bool intersect(uint32_t prim, float tmin, float tmax, float &t, float &u, float &v) const {
-        const float *b = geometry.box_ptr(prim);
-        u = 0.0f;
-        v = 0.0f;
-        return ray_box_primitive(ray, b, b + 3, tmin, tmax, t);
-    }
-};
 
 /// Closest hit (AnyHit false) or any hit of a valid ray over a non-empty wide
 /// tree. Hit children are visited near to far: the nearest next, the others

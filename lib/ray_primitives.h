@@ -1,0 +1,56 @@
+// What both traversals (binary and wide) share: which rays are valid, the
+// miss record, and the leaf-primitive tests for triangles and boxes.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "aacbvh/aacbvh.h"
+#include "geometry.h"
+#include "ray_box.h"
+#include "triangle_intersect.h"
+
+namespace aacbvh {
+
+/// A ray with a NaN field, an infinite origin or direction component, or a
+/// zero direction misses everything (an infinite tmax is normal use).
+inline bool ray_is_valid(const aacbvh_ray &ray) {
+    for (int k = 0; k < 3; ++k)
+        if (!std::isfinite(ray.org[k]) || !std::isfinite(ray.dir[k])) return false;
+    if (std::isnan(ray.tmin) || std::isnan(ray.tmax)) return false;
+    return ray.dir[0] != 0.0f || ray.dir[1] != 0.0f || ray.dir[2] != 0.0f;
+}
+
+inline void set_miss(aacbvh_hit &hit) {
+    hit.t = INFINITY;
+    hit.u = 0.0f;
+    hit.v = 0.0f;
+    hit.prim_id = AACBVH_INVALID_ID;
+}
+
+/// Leaf tests of triangle geometry: the watertight test on the caller's vertices.
+struct TrianglePrimitives {
+    const Geometry &geometry;
+    TriangleRay ray;
+
+    bool intersect(uint32_t prim, float tmin, float tmax, float &t, float &u, float &v) const {
+        const float *p[3];
+        geometry.triangle(prim, p);
+        return intersect_triangle(ray, p[0], p[1], p[2], tmin, tmax, t, u, v);
+    }
+};
+
+/// Leaf tests of box geometry: t is where the ray enters the box (clamped to tmin).
+struct BoxPrimitives {
+    const Geometry &geometry;
+    const BoxRay &ray;
+
+    bool intersect(uint32_t prim, float tmin, float tmax, float &t, float &u, float &v) const {
+        const float *b = geometry.box_ptr(prim);
+        u = 0.0f;
+        v = 0.0f;
+        return ray_box_primitive(ray, b, b + 3, tmin, tmax, t);
+    }
+};
+
+} // namespace aacbvh
