@@ -1,6 +1,7 @@
 #include "cluster_combine.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 
 #include "distance_row.h"
@@ -186,7 +187,8 @@ uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint
         const float dx = (std::max(a.hi[0], b.hi[0]) - std::min(a.lo[0], b.lo[0])) * scale;
         const float dy = (std::max(a.hi[1], b.hi[1]) - std::min(a.lo[1], b.lo[1])) * scale;
         const float dz = (std::max(a.hi[2], b.hi[2]) - std::min(a.lo[2], b.lo[2])) * scale;
-        return dx * dy + dy * dz + dz * dx;
+        const float d = dx * dy + dy * dz + dz * dx;
+        return d <= FLT_MAX ? d : FLT_MAX; // as distance_row(): never inf or NaN, below the +inf diagonal
     };
     auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
 

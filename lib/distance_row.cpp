@@ -1,6 +1,7 @@
 #include "distance_row.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 
 #if defined(__x86_64__) || defined(__i386__)
@@ -18,7 +19,8 @@ namespace {
         const float dx = (std::max(b.hi[0][j], q[3]) - std::min(b.lo[0][j], q[0])) * scale;
         const float dy = (std::max(b.hi[1][j], q[4]) - std::min(b.lo[1][j], q[1])) * scale;
         const float dz = (std::max(b.hi[2][j], q[5]) - std::min(b.lo[2][j], q[2])) * scale;
-        out[j] = dx * dy + dy * dz + dz * dx;
+        const float d = dx * dy + dy * dz + dz * dx;
+        out[j] = d <= FLT_MAX ? d : FLT_MAX;
     }
 }
 
@@ -35,7 +37,7 @@ void distance_row_sse(const BoxColumns &b, uint32_t count, const float q[6], flo
         const __m128 dz = _mm_mul_ps(_mm_sub_ps(_mm_max_ps(_mm_loadu_ps(b.hi[2] + j), qhz),
                                                 _mm_min_ps(_mm_loadu_ps(b.lo[2] + j), qlz)), s);
         const __m128 area = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dy), _mm_mul_ps(dy, dz)), _mm_mul_ps(dz, dx));
-        _mm_storeu_ps(out + j, area);
+        _mm_storeu_ps(out + j, _mm_min_ps(area, _mm_set1_ps(FLT_MAX)));
     }
 }
 
@@ -53,7 +55,7 @@ __attribute__((target("avx"))) void distance_row_avx(const BoxColumns &b, uint32
                                                       _mm256_min_ps(_mm256_loadu_ps(b.lo[2] + j), qlz)), s);
         const __m256 area =
             _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dy), _mm256_mul_ps(dy, dz)), _mm256_mul_ps(dz, dx));
-        _mm256_storeu_ps(out + j, area);
+        _mm256_storeu_ps(out + j, _mm256_min_ps(area, _mm256_set1_ps(FLT_MAX)));
     }
 }
 

@@ -14,7 +14,10 @@ struct BoxColumns {
     float *hi[3];
 };
 
-/// out[j] = scale^2-weighted half area of union(query, boxes j), j in [0, count).
+/// out[j] = scale^2-weighted half area of union(query, boxes j), j in [0, count),
+/// clamped to FLT_MAX: a scene wider than FLT_MAX overflows the extents before
+/// scaling, and an inf or NaN distance would let a cluster pair with itself
+/// (the matrix diagonal is +inf).
 /// query = {lo x, y, z, hi x, y, z}. All arrays may be read up to the next
 /// multiple of 8 past count (callers pad them).
 void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out);

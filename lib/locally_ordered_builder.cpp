@@ -17,6 +17,12 @@
 // becomes empty. A query walks it depth first, nearer child first, and skips
 // a subtree whose distance bound is no smaller than the best distance found. Each merge costs O(log n) refitting; about
 // 2-3 queries per merge, each near O(log n) on typical scenes.
+//
+// Distances are computed on extents scaled by 1 / the scene's largest extent,
+// as AAC does (distance_scale()), so scenes at 1e30 or 1e-30 keep finite,
+// distinct distances. Should a distance still be infinite (a scene wider than
+// FLT_MAX), the search takes any cluster over none and the chain's "prev wins
+// ties" rule still ends every chain in a merge.
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
@@ -25,6 +31,7 @@
 
 #include "builders.h"
 #include "memory.h"
+#include "morton.h"
 
 namespace aacbvh {
 namespace {
@@ -32,50 +39,6 @@ namespace {
 constexpr uint32_t kNone = UINT32_MAX;
 /// Chain steps between two cancellation polls.
 constexpr uint32_t kCancelPoll = 4096;
-
-/// Spreads the low 21 bits of v to every third bit.
-uint64_t spread_bits_21(uint64_t v) {
-    v &= 0x1fffff;
-    v = (v | v << 32) & 0x001f00000000ffffull;
-    v = (v | v << 16) & 0x001f0000ff0000ffull;
-    v = (v | v << 8) & 0x100f00f00f00f00full;
-    v = (v | v << 4) & 0x10c30c30c30c30c3ull;
-    v = (v | v << 2) & 0x1249249249249249ull;
-    return v;
-}
-
-/// Primitive indices in Morton order of their centroids (63-bit codes; ties
-/// keep input order).
-Array<uint32_t> morton_order(const BuildInput &input) {
-    const uint32_t n = uint32_t(input.size());
-    Box cb = Box::empty();
-    for (uint32_t i = 0; i < n; ++i) {
-        const Box &b = input.boxes[i];
-        const float c[3] = {b.centroid(0), b.centroid(1), b.centroid(2)};
-        cb.extend(c);
-    }
-    struct Key {
-        uint64_t code;
-        uint32_t index;
-    };
-    Array<Key> keys(n);
-    for (uint32_t i = 0; i < n; ++i) {
-        uint64_t code = 0;
-        for (int k = 0; k < 3; ++k) {
-            const float extent = cb.extent(k);
-            const float t = extent > 0.0f ? (input.boxes[i].centroid(k) - cb.lo[k]) / extent : 0.0f;
-            const uint64_t q = uint64_t(std::min(std::max(t, 0.0f), 1.0f) * 2097151.0f);
-            code |= spread_bits_21(q) << (2 - k);
-        }
-        keys[i] = Key{code, i};
-    }
-    std::sort(keys.begin(), keys.end(), [](const Key &a, const Key &b) {
-        return a.code != b.code ? a.code < b.code : a.index < b.index;
-    });
-    Array<uint32_t> order(n);
-    for (uint32_t i = 0; i < n; ++i) order[i] = keys[i].index;
-    return order;
-}
 
 /// What the search tree keeps per node to bound distances: the largest lower
 /// corner and the smallest upper corner of the clusters below (each cluster a
@@ -102,13 +65,11 @@ struct CornerBounds {
         return r;
     }
     /// Lower bound of d(query, C) over the clusters C below. Same float
-    /// operations as union_half_area, so it never exceeds a true distance
-    /// (and equals it for a single cluster).
-    float distance_bound(const Box &q) const {
-        const float dx = std::max(q.hi[0], hi_min[0]) - std::min(q.lo[0], lo_max[0]);
-        const float dy = std::max(q.hi[1], hi_min[1]) - std::min(q.lo[1], lo_max[1]);
-        const float dz = std::max(q.hi[2], hi_min[2]) - std::min(q.lo[2], lo_max[2]);
-        return dx * dy + dy * dz + dz * dx;
+    /// operations as scaled_union_half_area, so it never exceeds a true
+    /// distance (and equals it for a single cluster).
+    float distance_bound(const Box &q, float scale) const {
+        const Box corners{{lo_max[0], lo_max[1], lo_max[2]}, {hi_min[0], hi_min[1], hi_min[2]}};
+        return scaled_union_half_area(q, corners, scale);
     }
 };
 
@@ -119,13 +80,16 @@ public:
 
     void build() {
         out_.resize(n_);
-        const Array<uint32_t> order = morton_order(input_);
+        Array<uint64_t> codes;
+        Array<uint32_t> order;
+        sort_by_morton_code(input_, ctx_.scheduler(), codes, order);
         for (uint32_t i = 0; i < n_; ++i) {
             out_.prim_ids[i] = input_.prim_ids[order[i]];
             out_.boxes[i] = input_.boxes[order[i]];
         }
         out_.root = 0;
         if (n_ == 1) return;
+        scale_ = distance_scale(input_.bounds);
 
         leaf_base_ = 1;
         while (leaf_base_ < n_) leaf_base_ *= 2;
@@ -146,7 +110,7 @@ public:
         uint32_t until_poll = kCancelPoll;
         while (next_id < 2 * n_ - 1) {
             if (--until_poll == 0) {
-                ctx_.check_cancelled();
+                ctx_.poll();
                 until_poll = kCancelPoll;
             }
             const uint32_t x = chain.back();
@@ -165,13 +129,16 @@ public:
     }
 
 private:
-    /// The nearest active cluster to x. `prev` (the cluster before x in the
-    /// chain, or kNone) wins ties, which keeps the chain's distances strictly
-    /// decreasing; other ties go to whichever the walk meets first.
+    /// The nearest active cluster to x (never kNone: at least one other is
+    /// active). `prev` (the cluster before x in the chain, or kNone) wins
+    /// ties, which keeps the chain's distances strictly decreasing; other ties
+    /// go to whichever the walk meets first. Until a candidate is found nothing
+    /// is pruned, so infinite distances still yield one.
     uint32_t nearest(uint32_t x, uint32_t prev) const {
         const Box q = out_.boxes[x];
-        float best = prev == kNone ? INFINITY : union_half_area(q, out_.boxes[prev]);
+        float best = prev == kNone ? INFINITY : scaled_union_half_area(q, out_.boxes[prev], scale_);
         uint32_t best_id = prev;
+        const auto beats_best = [&](float d) { return best_id == kNone || d < best; };
         struct Entry {
             uint32_t node;
             float bound;
@@ -181,26 +148,26 @@ private:
         stack[top++] = Entry{1, 0.0f};
         while (top > 0) {
             const Entry e = stack[--top];
-            if (e.bound >= best) continue;
+            if (!beats_best(e.bound)) continue;
             if (e.node >= leaf_base_) {
                 const uint32_t id = slot_node_[e.node - leaf_base_];
                 if (id == x || id == kNone) continue;
-                const float d = union_half_area(q, out_.boxes[id]);
-                if (d < best) {
+                const float d = scaled_union_half_area(q, out_.boxes[id], scale_);
+                if (beats_best(d)) {
                     best = d;
                     best_id = id;
                 }
                 continue;
             }
             const uint32_t l = 2 * e.node, r = l + 1;
-            const float bl = tree_[l].distance_bound(q);
-            const float br = tree_[r].distance_bound(q);
+            const float bl = tree_[l].distance_bound(q, scale_);
+            const float br = tree_[r].distance_bound(q, scale_);
             if (bl <= br) {
-                if (br < best) stack[top++] = Entry{r, br};
-                if (bl < best) stack[top++] = Entry{l, bl};
+                if (beats_best(br)) stack[top++] = Entry{r, br};
+                if (beats_best(bl)) stack[top++] = Entry{l, bl};
             } else {
-                if (bl < best) stack[top++] = Entry{l, bl};
-                if (br < best) stack[top++] = Entry{r, br};
+                if (beats_best(bl)) stack[top++] = Entry{l, bl};
+                if (beats_best(br)) stack[top++] = Entry{r, br};
             }
         }
         return best_id;
@@ -229,6 +196,7 @@ private:
     BuildContext &ctx_;
     BinaryTree &out_;
     uint32_t n_;
+    float scale_ = 1.0f;              ///< distance_scale() of the scene
     uint32_t leaf_base_ = 1;          ///< slots are tree nodes [leaf_base_, 2 leaf_base_)
     Array<CornerBounds> tree_;  ///< implicit tree: node i has children 2i, 2i+1
     Array<uint32_t> slot_node_; ///< cluster (node id) in each slot, or kNone

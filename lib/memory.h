@@ -6,9 +6,15 @@
 // elements uninitialised on resize, and blocks of 2 MiB and more are 2 MiB
 // aligned and marked for transparent huge pages (one fault per 2 MiB instead
 // of per 4 KiB), as Embree does for its build memory.
+//
+// Tests inject allocation failures through testing::alloc_fail_countdown
+// (tests/test_out_of_memory.cpp): every allocation made here consults it, at
+// the cost of one relaxed atomic load while it is unarmed.
 #pragma once
 
+#include <atomic>
 #include <cstddef>
+#include <cstdint>
 #include <cstdlib>
 #include <new>
 #include <utility>
@@ -18,9 +24,29 @@
 
 namespace aacbvh {
 
+namespace testing {
+
+/// Allocation failure injection, for tests only. 0 = unarmed. Armed with
+/// k > 0, each checked allocation counts it down and the one that takes it
+/// from 1 to 0 fails with std::bad_alloc (one failure, then unarmed again).
+/// A value still above 0 afterwards means the failure point was not reached.
+extern std::atomic<int64_t> alloc_fail_countdown;
+
+/// The armed path of check_allocation(): true when this allocation must fail.
+bool take_injected_failure() noexcept;
+
+/// Throws std::bad_alloc when an injected failure is due.
+inline void check_allocation() {
+    if (alloc_fail_countdown.load(std::memory_order_relaxed) != 0 && take_injected_failure())
+        throw std::bad_alloc();
+}
+
+} // namespace testing
+
 constexpr size_t kHugePageBytes = size_t(1) << 21;
 
 inline void *allocate_build_memory(size_t bytes) {
+    testing::check_allocation();
     if (bytes < kHugePageBytes) return ::operator new(bytes);
     const size_t rounded = (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
     void *p = std::aligned_alloc(kHugePageBytes, rounded);

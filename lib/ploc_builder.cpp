@@ -22,6 +22,7 @@
 
 #include "builders.h"
 #include "memory.h"
+#include "morton.h"
 
 namespace aacbvh {
 namespace {
@@ -40,60 +41,21 @@ inline uint32_t pair_hash(uint32_t i, uint32_t j) {
     return uint32_t(x);
 }
 
-/// Spreads the low 21 bits of v to every third bit.
-uint64_t spread_bits_21(uint64_t v) {
-    v &= 0x1fffff;
-    v = (v | v << 32) & 0x001f00000000ffffull;
-    v = (v | v << 16) & 0x001f0000ff0000ffull;
-    v = (v | v << 8) & 0x100f00f00f00f00full;
-    v = (v | v << 4) & 0x10c30c30c30c30c3ull;
-    v = (v | v << 2) & 0x1249249249249249ull;
-    return v;
-}
-
-/// Primitive indices in Morton order of their centroids (63-bit codes,
-/// quantised in the centroid bounds; ties keep input order).
-Array<uint32_t> morton_order(const BuildInput &input, Scheduler &scheduler) {
-    const uint32_t n = uint32_t(input.size());
-    Box cb = Box::empty();
-    for (uint32_t i = 0; i < n; ++i) {
-        const Box &b = input.boxes[i];
-        const float c[3] = {b.centroid(0), b.centroid(1), b.centroid(2)};
-        cb.extend(c);
-    }
-    struct Key {
-        uint64_t code;
-        uint32_t index;
-    };
-    Array<Key> keys(n);
-    scheduler.parallel_for(0, n, kGrain, [&](size_t begin, size_t end) {
-        for (size_t i = begin; i < end; ++i) {
-            uint64_t code = 0;
-            for (int k = 0; k < 3; ++k) {
-                const float extent = cb.extent(k);
-                const float t = extent > 0.0f ? (input.boxes[i].centroid(k) - cb.lo[k]) / extent : 0.0f;
-                const uint64_t q = uint64_t(std::min(std::max(t, 0.0f), 1.0f) * 2097151.0f);
-                code |= spread_bits_21(q) << (2 - k);
-            }
-            keys[i] = Key{code, uint32_t(i)};
-        }
-    });
-    std::sort(keys.begin(), keys.end(), [](const Key &a, const Key &b) {
-        return a.code != b.code ? a.code < b.code : a.index < b.index;
-    });
-    Array<uint32_t> order(n);
-    for (uint32_t i = 0; i < n; ++i) order[i] = keys[i].index;
-    return order;
-}
-
 } // namespace
 
 void build_ploc(const BuildInput &input, uint32_t radius, BuildContext &ctx, BinaryTree &out) {
     const uint32_t n = uint32_t(input.size());
     const size_t r = std::max<uint32_t>(radius, 1);
+    // Distances on extents scaled as AAC's (distance_scale()): finite and
+    // distinct for scenes at 1e30 or 1e-30, never NaN.
+    const float scale = distance_scale(input.bounds);
     Scheduler &scheduler = ctx.scheduler();
     out.resize(n);
-    const Array<uint32_t> order = morton_order(input, scheduler);
+    Array<uint32_t> order;
+    {
+        Array<uint64_t> codes;
+        sort_by_morton_code(input, scheduler, codes, order);
+    }
 
     // The current clusters in Morton order: node id and box; next_* is the
     // compacted list being written.
@@ -111,7 +73,7 @@ void build_ploc(const BuildInput &input, uint32_t radius, BuildContext &ctx, Bin
     size_t count = n;
     uint32_t next_id = n;
     while (count > 1) {
-        ctx.check_cancelled();
+        ctx.poll();
         scheduler.parallel_for(0, count, kGrain, [&](size_t begin, size_t end) {
             for (size_t i = begin; i < end; ++i) {
                 const size_t lo = i > r ? i - r : 0;
@@ -122,7 +84,7 @@ void build_ploc(const BuildInput &input, uint32_t radius, BuildContext &ctx, Bin
                 // hash the lower position comes first and stays.
                 for (size_t j = lo; j < hi; ++j) {
                     if (j == i) continue;
-                    const float d = union_half_area(boxes[i], boxes[j]);
+                    const float d = scaled_union_half_area(boxes[i], boxes[j], scale);
                     if (d > best) continue;
                     if (best_j != i && d == best) {
                         const size_t gap = j > i ? j - i : i - j;

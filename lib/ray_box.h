@@ -154,7 +154,9 @@ inline bool ray_box_primitive(const BoxRay &r, const float lo[3], const float hi
     float t0, t1;
     slab_interval(r, lo, hi, tmin, tmax, t0, t1);
     t_entry = t0;
-    return t0 <= t1;
+    // An entry beyond FLT_MAX (a denormal direction component crawling towards
+    // the box) is not a hit: no float t describes it, as for triangles.
+    return t0 <= t1 && t0 < INFINITY;
 }
 
 } // namespace aacbvh

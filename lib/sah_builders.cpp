@@ -269,9 +269,11 @@ private:
 
     float centroid(uint32_t prim, int axis) const { return input_.boxes[prim].centroid(axis); }
 
-    static int bin_of(float c, float lo, float scale) {
-        const int bin = int((c - lo) * scale);
-        return std::min(std::max(bin, 0), kBins - 1);
+    /// In double: c - lo overflows float when the centroids spread over most
+    /// of its range (and inf * 0 would be NaN).
+    static int bin_of(float c, float lo, double scale) {
+        const double t = (double(c) - lo) * scale;
+        return t <= 0.0 ? 0 : t >= double(kBins - 1) ? kBins - 1 : int(t);
     }
 
     void split(const RangeTask &task, RangeTask &left, RangeTask &right) {
@@ -281,10 +283,11 @@ private:
         for (int k = 1; k < 3; ++k)
             if (cb.extent(k) > cb.extent(axis)) axis = k;
         const float lo = cb.lo[axis];
-        const float scale = float(kBins) / cb.extent(axis);
+        const double extent = double(cb.hi[axis]) - cb.lo[axis];
+        const double scale = kBins / extent;
 
         uint32_t mid = 0;
-        if (cb.extent(axis) > 0.0f && std::isfinite(scale)) {
+        if (extent > 0.0 && std::isfinite(scale)) {
             Bin bins[kBins];
             for (uint32_t i = b; i < e; ++i) {
                 const uint32_t p = order_[i];

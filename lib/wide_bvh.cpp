@@ -13,6 +13,7 @@
 #include <new>
 #include <vector>
 
+#include "memory.h"
 #include "ray_primitives.h"
 
 #if defined(__SSE2__)
@@ -60,6 +61,7 @@ void WideBvh::build(const Bvh &bvh) {
     for (size_t i = 0; i < bvh.nodes.size(); ++i) inner += bnodes[i].is_leaf() ? 0 : 1;
     // Every wide node but a lone leaf's consumes a distinct binary inner node.
     const size_t capacity = inner > 0 ? inner : 1;
+    testing::check_allocation(); // the out-of-memory test reaches this block too
     void *raw = std::aligned_alloc(alignof(WideNode), capacity * sizeof(WideNode));
     if (!raw) throw std::bad_alloc();
     std::unique_ptr<WideNode[], FreeAligned> nodes(static_cast<WideNode *>(raw));

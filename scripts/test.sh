@@ -3,10 +3,14 @@
 #   1. a Release build                      (<build>)
 #   2. AddressSanitizer + UBSan             (<build>-asan, -DAACBVH_SANITIZE=address,undefined)
 #   3. ThreadSanitizer                      (<build>-tsan, -DAACBVH_SANITIZE=thread)
-# each with `ctest --output-on-failure`. Every stage runs even if an earlier
+# each with `ctest --output-on-failure`; then valgrind memcheck over the fast
+# C API tests of stage 1 and a 60 s libFuzzer run (scripts/fuzz.sh,
+# <build>-fuzz), whose tools are installed when missing (as root with
+# apt-get), else those two stages are skipped. Every stage runs even if an earlier
 # one failed; the exit status is non-zero if any did. Idempotent: reruns
 # reuse the build directories.
-# AACBVH_SANITIZERS=0 runs only the Release stage.
+# AACBVH_SANITIZERS=0 leaves out the sanitizer stages, AACBVH_VALGRIND=0 and
+# AACBVH_FUZZ=0 the valgrind and fuzz stages.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
@@ -125,6 +129,56 @@ if [ "${AACBVH_SANITIZERS:-1}" != 0 ]; then
             -DCMAKE_BUILD_TYPE=RelWithDebInfo -DAACBVH_SANITIZE=thread
     else
         failed+=("tsan (sanitizer does not run here)")
+    fi
+fi
+
+# install_if_missing COMMAND PACKAGE...: succeeds when COMMAND is there, or
+# could be installed (as root, with apt-get). Installing here keeps README's
+# command unchanged for the tools of the two stages below.
+install_if_missing() {
+    local cmd=$1
+    shift
+    command -v "$cmd" > /dev/null 2>&1 && return 0
+    if [ "$(id -u)" = 0 ] && command -v apt-get > /dev/null 2>&1; then
+        log "installing $* (for $cmd)"
+        export DEBIAN_FRONTEND=noninteractive
+        apt-get install -y "$@" > /dev/null 2>&1 ||
+            { apt-get update > /dev/null && apt-get install -y "$@" > /dev/null; } || true
+    fi
+    command -v "$cmd" > /dev/null 2>&1
+}
+
+# Valgrind memcheck over the faster C API tests of the Release build (leaks
+# and invalid reads the sanitizer builds cannot see in uninstrumented code
+# paths); AACBVH_TEST_QUICK=1 shortens the watertight test. About 1 minute.
+if [ "${AACBVH_VALGRIND:-1}" != 0 ]; then
+    if install_if_missing valgrind valgrind; then
+        log "valgrind: memcheck over the fast C API tests"
+        for t in test_version test_params test_layout test_errors test_bad_input test_refit \
+                 test_aac_exact test_ray_directions test_watertight; do
+            exe=$AACBVH_BUILD_DIR/tests/$t
+            if [ ! -x "$exe" ]; then
+                failed+=("valgrind ($t not built)")
+                continue
+            fi
+            if AACBVH_TEST_QUICK=1 valgrind -q --error-exitcode=1 --leak-check=full "$exe" \
+                > "$AACBVH_BUILD_DIR/valgrind-$t.log" 2>&1; then
+                echo "valgrind: $t clean"
+            else
+                cat "$AACBVH_BUILD_DIR/valgrind-$t.log"
+                failed+=("valgrind ($t)")
+            fi
+        done
+    else
+        log "valgrind: SKIPPED: valgrind is not installed (apt-get install -y valgrind)"
+    fi
+fi
+
+# The libFuzzer harness over the committed corpus, AACBVH_FUZZ_SECONDS (60) long.
+if [ "${AACBVH_FUZZ:-1}" != 0 ]; then
+    install_if_missing clang++-14 clang-14 libclang-rt-14-dev || true
+    if ! bash "$AACBVH_ROOT/scripts/fuzz.sh"; then
+        failed+=("fuzz")
     fi
 fi
 

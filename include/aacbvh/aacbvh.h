@@ -254,10 +254,9 @@ AACBVH_API aacbvh_status aacbvh_bvh_set_boxes(aacbvh_bvh *bvh, const float *boxe
 /**
  * Progress callback: called on the thread that called aacbvh_bvh_build(), with
  * the fraction done in [0, 1]. Fractions never decrease; a build that succeeds
- * reports 0 first and 1 last. Calls come between the build's phases and, in
- * the AAC builders and the final flattening, also every few milliseconds
- * during the phase; the other builders check for a cancel only at the next
- * phase boundary. Return true to go on, false to cancel: the build then stops
+ * reports 0 first and 1 last. Calls come between the build's phases and
+ * every few milliseconds during them, so a cancel is noticed promptly by every
+ * builder. Return true to go on, false to cancel: the build then stops
  * promptly, frees what it allocated, returns AACBVH_ERROR_CANCELLED and keeps
  * the previous tree, and the callback is not called again by that build. It
  * must not call into the same BVH handle.
