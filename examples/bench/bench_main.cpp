@@ -67,6 +67,7 @@ struct Options {
     bool embree = true;
     bool self_check = false;
     uint32_t max_leaf_size = 4;
+    int layout = AACBVH_LAYOUT_BINARY; ///< --layout: what aacbvh_bvh_intersect / occluded traverse
     std::string csv, json, svg, markdown;
     std::string preview_dir;  ///< --preview DIR: a PGM image of the primary hits per scene
 };
@@ -95,6 +96,7 @@ void usage(FILE *out) {
         "  --lo-max-triangles N  run locally-ordered only on scenes of at most N\n"
         "                    triangles (default 400000; 0 = no limit)\n"
         "  --no-embree       leave Embree out\n"
+        "  --layout L        traversal layout for the Mrays/s columns: binary (default) or wide4\n"
         "  --csv FILE, --json FILE, --svg FILE, --markdown FILE   write the results\n"
         "  --preview DIR     write DIR/<scene>.pgm, the primary hits shaded by the cosine\n"
         "                    to the light (to check the cameras)\n"
@@ -206,6 +208,15 @@ bool parse_args(int argc, char **argv, Options &opt) {
             opt.preview_dir = s;
         } else if (a == "--no-embree") {
             opt.embree = false;
+        } else if (a == "--layout") {
+            const char *s = next("--layout");
+            if (!s) return false;
+            if (std::string(s) == "binary")
+                opt.layout = AACBVH_LAYOUT_BINARY;
+            else if (std::string(s) == "wide4")
+                opt.layout = AACBVH_LAYOUT_WIDE4;
+            else
+                return false;
         } else if (a == "--self-check") {
             opt.self_check = true;
         } else if (a == "--csv" || a == "--json" || a == "--svg" || a == "--markdown") {
@@ -301,7 +312,7 @@ struct BvhDeleter {
 };
 using BvhPtr = std::unique_ptr<aacbvh_bvh, BvhDeleter>;
 
-BvhPtr make_bvh(aacbvh_context *ctx, const Scene &scene, int builder, uint32_t max_leaf, std::string &err) {
+BvhPtr make_bvh(aacbvh_context *ctx, const Scene &scene, int builder, uint32_t max_leaf, int layout, std::string &err) {
     aacbvh_bvh *raw = nullptr;
     if (!ctx || aacbvh_bvh_create(ctx, &raw) != AACBVH_OK) {
         err = "cannot create a BVH";
@@ -310,6 +321,7 @@ BvhPtr make_bvh(aacbvh_context *ctx, const Scene &scene, int builder, uint32_t m
     BvhPtr bvh(raw);
     if (aacbvh_bvh_set_param_int(raw, AACBVH_PARAM_BUILDER, builder) != AACBVH_OK ||
         aacbvh_bvh_set_param_int(raw, AACBVH_PARAM_MAX_LEAF_SIZE, max_leaf) != AACBVH_OK ||
+        aacbvh_bvh_set_param_int(raw, AACBVH_PARAM_TRAVERSAL_LAYOUT, layout) != AACBVH_OK ||
         aacbvh_bvh_set_triangles(raw, scene.vertices.data(), scene.vertex_count(), 3 * sizeof(float),
                                  scene.indices.data(), scene.triangle_count()) != AACBVH_OK) {
         err = aacbvh_bvh_last_error(raw);
@@ -445,7 +457,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
     rays.rays[kPrimary] = make_primary_rays(res.camera, opt.width, opt.height);
     {
         std::string err;
-        BvhPtr ref = make_bvh(ctx1, scene, AACBVH_BUILDER_AAC_HQ, opt.max_leaf_size, err);
+        BvhPtr ref = make_bvh(ctx1, scene, AACBVH_BUILDER_AAC_HQ, opt.max_leaf_size, opt.layout, err);
         std::vector<aacbvh_hit> hits(rays.rays[kPrimary].size());
         if (!ref || aacbvh_bvh_build(ref.get()) != AACBVH_OK ||
             aacbvh_bvh_intersect(ref.get(), rays.rays[kPrimary].data(), hits.data(), hits.size()) != AACBVH_OK) {
@@ -479,7 +491,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
             BvhPtr quality_bvh;  // the 1-thread tree whose quality and ray speed are measured
             for (uint32_t t : opt.threads) {
                 std::string err;
-                BvhPtr bvh = make_bvh(contexts.get(t), scene, b->builder, opt.max_leaf_size, err);
+                BvhPtr bvh = make_bvh(contexts.get(t), scene, b->builder, opt.max_leaf_size, opt.layout, err);
                 if (!bvh) {
                     row.status = "error";
                     row.note = err;
@@ -504,7 +516,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
             }
             if (row.status == "ok" && !quality_bvh) {
                 std::string err;
-                quality_bvh = make_bvh(ctx1, scene, b->builder, opt.max_leaf_size, err);
+                quality_bvh = make_bvh(ctx1, scene, b->builder, opt.max_leaf_size, opt.layout, err);
                 if (!quality_bvh || aacbvh_bvh_build(quality_bvh.get()) != AACBVH_OK) {
                     row.status = "error";
                     row.note = quality_bvh ? aacbvh_bvh_last_error(quality_bvh.get()) : err;
@@ -608,7 +620,8 @@ int main(int argc, char **argv) {
         if (i == 0) a = "aacbvh-bench";
         info.command += (i ? " " : "") + a;
     }
-    info.library_version = aacbvh_version_string();
+    info.library_version = std::string(aacbvh_version_string()) +
+                           (opt.layout == AACBVH_LAYOUT_WIDE4 ? " (traversal layout wide4)" : " (traversal layout binary)");
     info.embree_version = embree_compiled() ? embree_version() : "not compiled in";
     if (!opt.embree && embree_compiled()) info.embree_version += " (left out: --no-embree)";
     info.cpu = cpu_name();
