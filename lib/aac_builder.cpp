@@ -110,7 +110,7 @@ private:
 
 } // namespace
 
-void build_aac(const BuildInput &input, const AacConfig &config, const FlattenRule &rule, BuildContext &ctx,
+void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &rule, BuildContext &ctx,
                BinaryTree &out, SubtreeChoices &choices) {
     const uint32_t n = uint32_t(input.size());
     Array<uint64_t> codes;
@@ -126,6 +126,7 @@ void build_aac(const BuildInput &input, const AacConfig &config, const FlattenRu
         }
     });
     Array<uint32_t>().swap(order);
+    Array<Box>().swap(input.boxes); // the leaves hold them now, in Morton order
     if (n == 1) {
         out.root = 0;
         return;

@@ -23,8 +23,9 @@ struct AacConfig {
 /// f(n) = ceil(c * n^alpha), never below 1.
 uint32_t aac_cluster_target(const AacConfig &config, uint32_t n);
 
-/// Also makes every node's flattening decision as it is created (into `choices`).
-void build_aac(const BuildInput &input, const AacConfig &config, const FlattenRule &rule, BuildContext &ctx,
+/// Also makes every node's flattening decision as it is created (into
+/// `choices`), and releases input.boxes once they are gathered into the tree.
+void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &rule, BuildContext &ctx,
                BinaryTree &out, SubtreeChoices &choices);
 
 /// Top-down full-sweep SAH (MacDonald and Booth 1990).

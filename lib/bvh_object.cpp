@@ -13,6 +13,7 @@
 #include "builders.h"
 #include "error.h"
 #include "flatten.h"
+#include "memory.h"
 #include "traversal.h"
 
 namespace aacbvh {
@@ -78,58 +79,61 @@ void BvhObject::build() {
     BuildContext ctx(scheduler_, progress_, progress_user_);
     ctx.report(0.0);
 
-    BuildInput input;
-    compute_build_input(geometry_, params.skip_invalid, ctx, input);
-    ctx.report(0.1);
-
+    // Everything the build allocates is counted from here (build_peak_bytes).
+    MemoryMeter meter;
     Bvh result;
-    double sah_cost = 0.0;
-    if (input.size() > 0) {
-        const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost};
-        BinaryTree tree;
-        SubtreeChoices choices;
-        bool decided = false; // AAC decides the flattening while it merges
-        switch (params.builder) {
-        case AACBVH_BUILDER_AAC_HQ:
-        case AACBVH_BUILDER_AAC_FAST:
-        case AACBVH_BUILDER_AAC:
-            build_aac(input, params.aac, rule, ctx, tree, choices);
-            decided = true;
-            break;
-        case AACBVH_BUILDER_SWEEP_SAH:
-            build_sweep_sah(input, params.traversal_cost, params.intersection_cost, ctx, tree);
-            break;
-        case AACBVH_BUILDER_BINNED_SAH:
-            build_binned_sah(input, params.traversal_cost, params.intersection_cost, ctx, tree);
-            break;
-        case AACBVH_BUILDER_LOCALLY_ORDERED:
-            build_locally_ordered(input, ctx, tree);
-            break;
-        case AACBVH_BUILDER_PLOC:
-            build_ploc(input, params.ploc_radius, ctx, tree);
-            break;
-        default:
-            throw Error(AACBVH_ERROR_INTERNAL, "unknown builder " + std::to_string(int(params.builder)));
-        }
-        ctx.report(0.8);
-        const uint64_t input_bytes = input.boxes.capacity() * sizeof(Box) + input.prim_ids.capacity() * 4;
-        Array<Box>().swap(input.boxes); // flattening needs only the tree
-        if (!decided) choose_subtrees(tree, rule, ctx, choices);
-        sah_cost = emit_bvh(tree, rule, choices, ctx, result);
-        const uint64_t tree_bytes = tree.boxes.capacity() * sizeof(Box) + tree.children.capacity() * 4 +
-                                    tree.prim_ids.capacity() * 4 + choices.capacity() * sizeof(SubtreeChoice);
-        build_peak_bytes_ = input_bytes + tree_bytes + result.memory_bytes();
-    } else {
-        build_peak_bytes_ = 0;
-    }
     WideBvh wide;
-    if (params.layout == AACBVH_LAYOUT_WIDE4) wide.build(result);
+    double sah_cost = 0.0;
+    uint64_t invalid_count = 0;
+    {
+        const MemoryMeter::Scope metered(meter);
+        BuildInput input;
+        compute_build_input(geometry_, params.skip_invalid, ctx, input);
+        invalid_count = input.invalid_count;
+        ctx.report(0.1);
+
+        if (input.size() > 0) {
+            const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost};
+            BinaryTree tree;
+            SubtreeChoices choices;
+            bool decided = false; // AAC decides the flattening while it merges
+            switch (params.builder) {
+            case AACBVH_BUILDER_AAC_HQ:
+            case AACBVH_BUILDER_AAC_FAST:
+            case AACBVH_BUILDER_AAC:
+                build_aac(input, params.aac, rule, ctx, tree, choices);
+                decided = true;
+                break;
+            case AACBVH_BUILDER_SWEEP_SAH:
+                build_sweep_sah(input, params.traversal_cost, params.intersection_cost, ctx, tree);
+                break;
+            case AACBVH_BUILDER_BINNED_SAH:
+                build_binned_sah(input, params.traversal_cost, params.intersection_cost, ctx, tree);
+                break;
+            case AACBVH_BUILDER_LOCALLY_ORDERED:
+                build_locally_ordered(input, ctx, tree);
+                break;
+            case AACBVH_BUILDER_PLOC:
+                build_ploc(input, params.ploc_radius, ctx, tree);
+                break;
+            default:
+                throw Error(AACBVH_ERROR_INTERNAL, "unknown builder " + std::to_string(int(params.builder)));
+            }
+            ctx.report(0.8);
+            Array<Box>().swap(input.boxes); // flattening needs only the tree
+            Array<uint32_t>().swap(input.prim_ids);
+            if (!decided) choose_subtrees(tree, rule, ctx, choices);
+            sah_cost = emit_bvh(tree, rule, choices, ctx, result);
+        }
+        if (params.layout == AACBVH_LAYOUT_WIDE4) wide.build(result);
+    }
     ctx.report(1.0);
 
     // Success: only now does the handle change.
     bvh_ = std::move(result);
     wide_ = std::move(wide);
-    invalid_count_ = input.invalid_count;
+    invalid_count_ = invalid_count;
+    build_peak_bytes_ = uint64_t(meter.peak());
     built_kind_ = geometry_.kind;
     built_primitive_count_ = geometry_.primitive_count;
     has_topology_ = true;

@@ -43,10 +43,44 @@ inline void check_allocation() {
 
 } // namespace testing
 
+/// Bytes of build arrays alive on one thread, and their peak: a build installs
+/// one on its calling thread (MemoryMeter::Scope) to report its peak memory.
+/// Arrays allocated by worker threads are not counted: the builders allocate
+/// their arrays on the calling thread and let tasks fill them.
+class MemoryMeter {
+public:
+    void add(int64_t bytes) {
+        live_ += bytes;
+        if (live_ > peak_) peak_ = live_;
+    }
+    int64_t peak() const { return peak_; }
+
+    static MemoryMeter *&current() {
+        static thread_local MemoryMeter *meter = nullptr;
+        return meter;
+    }
+    /// Installs a meter on this thread for the scope's lifetime.
+    class Scope {
+    public:
+        explicit Scope(MemoryMeter &m) : previous_(current()) { current() = &m; }
+        ~Scope() { current() = previous_; }
+        Scope(const Scope &) = delete;
+        Scope &operator=(const Scope &) = delete;
+
+    private:
+        MemoryMeter *previous_;
+    };
+
+private:
+    int64_t live_ = 0;
+    int64_t peak_ = 0;
+};
+
 constexpr size_t kHugePageBytes = size_t(1) << 21;
 
 inline void *allocate_build_memory(size_t bytes) {
     testing::check_allocation();
+    if (MemoryMeter *m = MemoryMeter::current()) m->add(int64_t(bytes));
     if (bytes < kHugePageBytes) return ::operator new(bytes);
     const size_t rounded = (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
     void *p = std::aligned_alloc(kHugePageBytes, rounded);
@@ -59,6 +93,7 @@ inline void *allocate_build_memory(size_t bytes) {
 
 inline void free_build_memory(void *p, size_t bytes) {
     if (!p) return;
+    if (MemoryMeter *m = MemoryMeter::current()) m->add(-int64_t(bytes));
     if (bytes < kHugePageBytes)
         ::operator delete(p);
     else
