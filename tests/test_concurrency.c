@@ -1,0 +1,179 @@
+/*
+ * Concurrency through the public API, as applications use it:
+ * - several application threads build their own BVHs at once on one shared
+ *   context (its worker pool), and each tree equals the one built alone;
+ * - several threads query one built BVH at once (intersect, occluded,
+ *   get_stats, get_nodes), and every answer equals the single-threaded one.
+ * The suite also runs under ThreadSanitizer, which checks the same calls for
+ * data races.
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <string.h>
+#include <math.h>
+#include <pthread.h>
+#include <cmocka.h>
+
+#include <aacbvh/aacbvh.h>
+
+#include "test_support.h"
+
+enum { kThreads = 4, kRays = 4096 };
+
+typedef struct build_job {
+    aacbvh_context *ctx;
+    const ts_mesh *mesh;
+    int builder;
+    ts_tree tree;
+    aacbvh_status status;
+} build_job;
+
+static aacbvh_status build_tree(aacbvh_context *ctx, const ts_mesh *mesh, int builder, ts_tree *out) {
+    aacbvh_bvh *bvh = NULL;
+    aacbvh_status s = aacbvh_bvh_create(ctx, &bvh);
+    if (s == AACBVH_OK) s = aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, builder);
+    if (s == AACBVH_OK)
+        s = aacbvh_bvh_set_triangles(bvh, mesh->vertices, mesh->vertex_count, 3 * sizeof(float), mesh->indices,
+                                     mesh->triangle_count);
+    if (s == AACBVH_OK) s = aacbvh_bvh_build(bvh);
+    if (s == AACBVH_OK) s = ts_tree_fetch(bvh, out);
+    aacbvh_bvh_destroy(bvh);
+    return s;
+}
+
+static void *build_thread(void *arg) {
+    build_job *job = (build_job *)arg;
+    job->status = build_tree(job->ctx, job->mesh, job->builder, &job->tree);
+    return NULL;
+}
+
+static void test_concurrent_builds_on_one_context(void **state) {
+    (void)state;
+    ts_mesh mesh = {0};
+    assert_true(ts_make_scene(TS_SCENE_GRID, 60000, 11, &mesh));
+    const int builders[kThreads] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_AAC_FAST, AACBVH_BUILDER_BINNED_SAH,
+                                    AACBVH_BUILDER_PLOC};
+    aacbvh_context *ctx;
+    TS_EXPECT_STATUS(aacbvh_context_create(2, &ctx), AACBVH_OK);
+
+    for (int round = 0; round < 2; ++round) {
+        build_job jobs[kThreads];
+        pthread_t threads[kThreads];
+        for (int i = 0; i < kThreads; ++i) {
+            memset(&jobs[i], 0, sizeof jobs[i]);
+            jobs[i].ctx = ctx;
+            jobs[i].mesh = &mesh;
+            jobs[i].builder = builders[i];
+            assert_int_equal(pthread_create(&threads[i], NULL, build_thread, &jobs[i]), 0);
+        }
+        for (int i = 0; i < kThreads; ++i) assert_int_equal(pthread_join(threads[i], NULL), 0);
+        for (int i = 0; i < kThreads; ++i) {
+            TS_EXPECT_STATUS(jobs[i].status, AACBVH_OK);
+            ts_tree alone;
+            TS_EXPECT_STATUS(build_tree(ctx, &mesh, builders[i], &alone), AACBVH_OK);
+            if (!ts_tree_equal(&alone, &jobs[i].tree))
+                fail_msg("builder %d: the tree built beside other builds differs from the one built alone",
+                         builders[i]);
+            ts_tree_free(&alone);
+            ts_tree_free(&jobs[i].tree);
+        }
+    }
+    aacbvh_context_destroy(ctx);
+    ts_mesh_free(&mesh);
+}
+
+typedef struct query_job {
+    const aacbvh_bvh *bvh;
+    const aacbvh_ray *rays;
+    aacbvh_hit hits[kRays];
+    uint8_t occluded[kRays];
+    aacbvh_stats stats;
+    aacbvh_node root;
+    int failed;
+} query_job;
+
+static void *query_thread(void *arg) {
+    query_job *job = (query_job *)arg;
+    job->stats.struct_size = sizeof job->stats;
+    for (int repeat = 0; repeat < 3; ++repeat) {
+        if (aacbvh_bvh_intersect(job->bvh, job->rays, job->hits, kRays) != AACBVH_OK ||
+            aacbvh_bvh_occluded(job->bvh, job->rays, job->occluded, kRays) != AACBVH_OK ||
+            aacbvh_bvh_get_stats(job->bvh, &job->stats) != AACBVH_OK ||
+            aacbvh_bvh_get_nodes(job->bvh, 0, 1, &job->root) != AACBVH_OK)
+            job->failed = 1;
+    }
+    return NULL;
+}
+
+static void check_concurrent_queries(int layout) {
+    ts_mesh mesh = {0};
+    assert_true(ts_make_scene(TS_SCENE_RANDOM, 20000, 5, &mesh));
+    aacbvh_context *ctx;
+    aacbvh_bvh *bvh;
+    ts_create(2, &ctx, &bvh);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, layout), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_triangles(bvh, mesh.vertices, mesh.vertex_count, 3 * sizeof(float),
+                                              mesh.indices, mesh.triangle_count),
+                     AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+
+    static aacbvh_ray rays[kRays];
+    ts_rng rng;
+    ts_rng_seed(&rng, 99);
+    for (int i = 0; i < kRays; ++i) {
+        for (int k = 0; k < 3; ++k) {
+            rays[i].org[k] = ts_rng_range(&rng, -1.5f, 1.5f);
+            rays[i].dir[k] = ts_rng_range(&rng, -1.0f, 1.0f);
+        }
+        rays[i].tmin = 0.0f;
+        rays[i].tmax = (i % 3 == 0) ? 0.5f : INFINITY;
+    }
+
+    static query_job reference, jobs[kThreads];
+    memset(&reference, 0, sizeof reference);
+    reference.bvh = bvh;
+    reference.rays = rays;
+    query_thread(&reference);
+    assert_false(reference.failed);
+
+    pthread_t threads[kThreads];
+    for (int i = 0; i < kThreads; ++i) {
+        memset(&jobs[i], 0, sizeof jobs[i]);
+        jobs[i].bvh = bvh;
+        jobs[i].rays = rays;
+        assert_int_equal(pthread_create(&threads[i], NULL, query_thread, &jobs[i]), 0);
+    }
+    for (int i = 0; i < kThreads; ++i) assert_int_equal(pthread_join(threads[i], NULL), 0);
+    for (int i = 0; i < kThreads; ++i) {
+        assert_false(jobs[i].failed);
+        assert_memory_equal(jobs[i].hits, reference.hits, sizeof reference.hits);
+        assert_memory_equal(jobs[i].occluded, reference.occluded, sizeof reference.occluded);
+        assert_memory_equal(&jobs[i].root, &reference.root, sizeof reference.root);
+        assert_int_equal(jobs[i].stats.node_count, reference.stats.node_count);
+        assert_true(jobs[i].stats.sah_cost == reference.stats.sah_cost);
+    }
+    aacbvh_bvh_destroy(bvh);
+    aacbvh_context_destroy(ctx);
+    ts_mesh_free(&mesh);
+}
+
+static void test_concurrent_queries_binary(void **state) {
+    (void)state;
+    check_concurrent_queries(AACBVH_LAYOUT_BINARY);
+}
+
+static void test_concurrent_queries_wide4(void **state) {
+    (void)state;
+    check_concurrent_queries(AACBVH_LAYOUT_WIDE4);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_concurrent_builds_on_one_context),
+        cmocka_unit_test(test_concurrent_queries_binary),
+        cmocka_unit_test(test_concurrent_queries_wide4),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
