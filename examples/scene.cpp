@@ -147,16 +147,8 @@ bool load_obj_builtin(const std::string &path, Scene &out, std::string &err) {
 
 #endif
 
-// SplitMix64 (Steele, Lea, Flood 2014): a tiny, well-mixed generator whose
-// output is fixed by the seed on every platform, unlike std:: distributions.
-struct Random {
-    uint64_t state;
-    uint64_t next() {
-        uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-        z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-        return z ^ (z >> 31);
-    }
+/// Uniform numbers from SplitMix64 (scene.h).
+struct Random : SplitMix64 {
     /// Uniform in [0, 1).
     double uniform() { return static_cast<double>(next() >> 11) * (1.0 / 9007199254740992.0); }
     double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
@@ -164,8 +156,8 @@ struct Random {
 
 // Value noise: a random value per lattice point, smoothly interpolated.
 double lattice_value(int64_t x, int64_t z, uint64_t seed) {
-    Random r{seed ^ (static_cast<uint64_t>(x) * 0x8CB92BA72F3D8DD7ull) ^
-             (static_cast<uint64_t>(z) * 0xD6E8FEB86659FD93ull)};
+    Random r{{seed ^ (static_cast<uint64_t>(x) * 0x8CB92BA72F3D8DD7ull) ^
+             (static_cast<uint64_t>(z) * 0xD6E8FEB86659FD93ull)}};
     return r.uniform();
 }
 
@@ -282,7 +274,7 @@ Scene make_procedural_scene(const ProceduralConfig &config) {
 
     add_terrain(scene, cells, config.seed);
 
-    Random random{config.seed * 0x2545F4914F6CDD1Dull + 17};
+    Random random{{config.seed * 0x2545F4914F6CDD1Dull + 17}};
     for (uint32_t k = 0; k < config.sphere_count; ++k) {
         // Log-uniform radii give a few large spheres and many small ones,
         // with a cluster of small ones near the centre.

@@ -7,6 +7,19 @@
 #include <vector>
 
 /// An indexed triangle mesh, laid out as aacbvh_bvh_set_triangles() takes it.
+/// SplitMix64 (Steele, Lea, Flood 2014): a tiny, well-mixed generator whose
+/// output is fixed by the seed on every platform, unlike std:: distributions.
+/// The generated scenes and the benchmark's rays both draw from it.
+struct SplitMix64 {
+    uint64_t state;
+    uint64_t next() {
+        uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+        z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+        return z ^ (z >> 31);
+    }
+};
+
 struct Scene {
     std::string name;               ///< file name without directory and ".obj", or a generated name
     std::vector<float> vertices;    ///< x, y, z per vertex (stride 12 bytes)

@@ -7,45 +7,18 @@
 #include <vector>
 
 #include "ray_primitives.h"
+#include "spill_stack.h"
 
 namespace aacbvh {
 
 namespace {
 
-/// A stack of (node, entry distance) that lives on the call stack while the
-/// tree is shallow. Builders do not bound depth (degenerate inputs can give a
-/// depth near the primitive count), so entries past the fixed part spill into
-/// a heap vector, allocated only by rays that need it.
-class NodeStack {
-public:
-    struct Entry {
-        uint32_t node;
-        float t;
-    };
-
-    bool empty() const { return size_ == 0; }
-
-    void push(uint32_t node, float t) {
-        if (size_ < kFixed)
-            fixed_[size_] = Entry{node, t};
-        else
-            overflow_.push_back(Entry{node, t});
-        ++size_;
-    }
-    Entry pop() {
-        --size_;
-        if (size_ < kFixed) return fixed_[size_];
-        const Entry e = overflow_.back();
-        overflow_.pop_back();
-        return e;
-    }
-
-private:
-    static constexpr size_t kFixed = 64;
-    size_t size_ = 0;
-    Entry fixed_[kFixed];
-    std::vector<Entry> overflow_;
+/// (node, entry distance) pairs waiting to be visited.
+struct StackEntry {
+    uint32_t node;
+    float t;
 };
+using NodeStack = SpillStack<StackEntry, 64>;
 
 /// Closest hit (AnyHit false) or any hit (AnyHit true) of a valid ray over a
 /// non-empty tree. Returns whether something was hit; hit is filled for the
@@ -80,10 +53,10 @@ bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, fl
                 boxes_tested += 2;
                 if (hit_l && hit_r) {
                     if (tr < tl) {
-                        stack.push(node.first, tl);
+                        stack.push({node.first, tl});
                         current = node.first + 1;
                     } else {
-                        stack.push(node.first + 1, tr);
+                        stack.push({node.first + 1, tr});
                         current = node.first;
                     }
                     continue;
@@ -109,7 +82,7 @@ bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, fl
             // Next: the nearest pending node still in reach of the closest hit.
             bool next = false;
             while (!stack.empty()) {
-                const NodeStack::Entry e = stack.pop();
+                const StackEntry e = stack.pop();
                 // The entry distance is rounded and may land a few ulps past a
                 // hit inside the box: widen as the box test widens its exit.
                 if (e.t <= tmax + std::fabs(tmax) * kTwoGamma3) {

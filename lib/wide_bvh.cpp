@@ -15,6 +15,7 @@
 
 #include "memory.h"
 #include "ray_primitives.h"
+#include "spill_stack.h"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -224,33 +225,7 @@ struct Entry {
     float t;
 };
 
-/// Pending children: on the call stack while the tree is shallow; a
-/// degenerate tree (depth near the primitive count) spills into a heap
-/// vector, allocated only by rays that need it.
-class EntryStack {
-public:
-    bool empty() const { return size_ == 0; }
-    void push(const Entry &e) {
-        if (size_ < kFixed)
-            fixed_[size_] = e;
-        else
-            overflow_.push_back(e);
-        ++size_;
-    }
-    Entry pop() {
-        --size_;
-        if (size_ < kFixed) return fixed_[size_];
-        const Entry e = overflow_.back();
-        overflow_.pop_back();
-        return e;
-    }
-
-private:
-    static constexpr size_t kFixed = 128;
-    size_t size_ = 0;
-    Entry fixed_[kFixed];
-    std::vector<Entry> overflow_;
-};
+using EntryStack = SpillStack<Entry, 128>;
 
 /// A key whose unsigned order is the order of the distance t (the usual
 /// sign-magnitude to two's-complement flip), low two bits cleared for a lane

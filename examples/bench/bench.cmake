@@ -14,7 +14,7 @@ add_library(aacbvh_bench_core STATIC
   ${_bench_dir}/rays.cpp)
 target_include_directories(aacbvh_bench_core PUBLIC ${_bench_dir})
 target_compile_options(aacbvh_bench_core PRIVATE -Wall -Wextra)
-target_link_libraries(aacbvh_bench_core PUBLIC aacbvh)
+target_link_libraries(aacbvh_bench_core PUBLIC aacbvh aacbvh_scene)
 
 add_executable(aacbvh-bench
   ${_bench_dir}/bench_main.cpp

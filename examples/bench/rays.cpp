@@ -1,4 +1,5 @@
 #include "rays.h"
+#include "scene.h"
 
 #include <algorithm>
 #include <cmath>
@@ -23,15 +24,8 @@ Vec normalize(Vec a) {
     return len > 0.0f ? a * (1.0f / len) : Vec{0.0f, 0.0f, 0.0f};
 }
 
-/// SplitMix64: a fixed, portable generator (std:: distributions differ between libraries).
-struct Rng {
-    uint64_t state;
-    uint64_t next() {
-        uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-        z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-        return z ^ (z >> 31);
-    }
+/// Uniform floats from SplitMix64 (scene.h): fixed and portable, unlike std:: distributions.
+struct Rng : SplitMix64 {
     float uniform() { return float(next() >> 40) * (1.0f / 16777216.0f); }  // [0, 1)
 };
 
@@ -161,7 +155,7 @@ void make_secondary_rays(const std::vector<aacbvh_ray> &primary, const std::vect
                          std::vector<aacbvh_ray> &shadow, std::vector<aacbvh_ray> &diffuse) {
     shadow.clear();
     diffuse.clear();
-    Rng rng{seed};
+    Rng rng{{seed}};
     const float offset = 1e-5f * scene_diagonal;
     const Vec light = make(camera.light);
     for (size_t i = 0; i < primary.size(); ++i) {
