@@ -74,6 +74,18 @@ void BvhObject::set_boxes(const float *boxes, size_t box_count, size_t stride) {
     replace_geometry(g);
 }
 
+void BvhObject::copy_triangles(const Bvh &bvh, float *out) const {
+    const uint32_t *ids = bvh.prim_ids.data();
+    scheduler_.parallel_for(0, bvh.prim_ids.size(), size_t(1) << 12, [&](size_t b, size_t e) {
+        for (size_t i = b; i < e; ++i) {
+            const float *p[3];
+            geometry_.triangle(ids[i], p);
+            for (int k = 0; k < 3; ++k)
+                for (int a = 0; a < 3; ++a) out[9 * i + 3 * k + a] = p[k][a];
+        }
+    });
+}
+
 void BvhObject::build() {
     const auto start = std::chrono::steady_clock::now();
     BuildContext ctx(scheduler_, progress_, progress_user_);
@@ -83,6 +95,7 @@ void BvhObject::build() {
     MemoryMeter meter;
     Bvh result;
     WideBvh wide;
+    Array<float> triangles;
     double sah_cost = 0.0;
     uint64_t invalid_count = 0;
     {
@@ -126,12 +139,17 @@ void BvhObject::build() {
             sah_cost = emit_bvh(tree, rule, choices, ctx, result);
         }
         if (params.layout == AACBVH_LAYOUT_WIDE4) wide.build(result);
+        if (geometry_.kind == GeometryKind::Triangles && params.triangle_storage == AACBVH_TRIANGLES_COPIED) {
+            triangles.resize(9 * result.prim_ids.size());
+            copy_triangles(result, triangles.data());
+        }
     }
     ctx.report(1.0);
 
     // Success: only now does the handle change.
     bvh_ = std::move(result);
     wide_ = std::move(wide);
+    triangles_.swap(triangles);
     invalid_count_ = invalid_count;
     build_peak_bytes_ = uint64_t(meter.peak());
     built_kind_ = geometry_.kind;
@@ -171,7 +189,17 @@ void BvhObject::refit() {
         wide_.clear();
     else if (!wide_.built())
         wide_.build(bvh_);
+    // The triangle copy (AACBVH_TRIANGLES_COPIED) is allocated before the
+    // refit, so that running out of memory leaves the tree as it was, and
+    // filled in place after it.
+    const bool copied = geometry_.kind == GeometryKind::Triangles &&
+                        params.triangle_storage == AACBVH_TRIANGLES_COPIED;
+    if (!copied)
+        Array<float>().swap(triangles_);
+    else if (triangles_.size() != 9 * bvh_.prim_ids.size())
+        triangles_.resize(9 * bvh_.prim_ids.size());
     refit_tree(bvh_, geometry_, scheduler_);
+    if (copied) copy_triangles(bvh_, triangles_.data());
     {
         // Leaf count and depth stay (same topology); the areas are summed now,
         // so that stats in a refit loop cost nothing more.
@@ -205,7 +233,8 @@ void BvhObject::stats(aacbvh_stats &out) const {
     out.leaf_count = f.leaf_count;
     out.primitive_count = bvh_.prim_ids.size();
     out.sah_cost = f.areas.sah_cost(params.traversal_cost, params.intersection_cost);
-    out.memory_bytes = sizeof(*this) + bvh_.memory_bytes() + wide_.memory_bytes();
+    out.memory_bytes = sizeof(*this) + bvh_.memory_bytes() + wide_.memory_bytes() +
+                       triangles_.capacity() * sizeof(float);
     out.invalid_primitive_count = invalid_count_;
     out.build_peak_bytes = build_peak_bytes_;
     out.built_sah_cost = built_sah_cost_;
@@ -214,21 +243,23 @@ void BvhObject::stats(aacbvh_stats &out) const {
 
 void BvhObject::intersect(const aacbvh_ray *rays, aacbvh_hit *hits, size_t count) const {
     require_tree();
+    const float *triangles = triangle_copy();
     scheduler_.parallel_for(0, count, 1024, [&](size_t b, size_t e) {
         if (wide_.built())
-            for (size_t i = b; i < e; ++i) intersect_ray_wide(wide_, bvh_, geometry_, rays[i], hits[i]);
+            for (size_t i = b; i < e; ++i) intersect_ray_wide(wide_, bvh_, geometry_, rays[i], hits[i], triangles);
         else
-            for (size_t i = b; i < e; ++i) intersect_ray(bvh_, geometry_, rays[i], hits[i]);
+            for (size_t i = b; i < e; ++i) intersect_ray(bvh_, geometry_, rays[i], hits[i], nullptr, triangles);
     });
 }
 
 void BvhObject::occluded(const aacbvh_ray *rays, uint8_t *out, size_t count) const {
     require_tree();
+    const float *triangles = triangle_copy();
     scheduler_.parallel_for(0, count, 1024, [&](size_t b, size_t e) {
         if (wide_.built())
-            for (size_t i = b; i < e; ++i) out[i] = occluded_ray_wide(wide_, bvh_, geometry_, rays[i]) ? 1 : 0;
+            for (size_t i = b; i < e; ++i) out[i] = occluded_ray_wide(wide_, bvh_, geometry_, rays[i], triangles) ? 1 : 0;
         else
-            for (size_t i = b; i < e; ++i) out[i] = occluded_ray(bvh_, geometry_, rays[i]) ? 1 : 0;
+            for (size_t i = b; i < e; ++i) out[i] = occluded_ray(bvh_, geometry_, rays[i], nullptr, triangles) ? 1 : 0;
     });
 }
 

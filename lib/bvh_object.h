@@ -46,12 +46,21 @@ public:
 
 private:
     void replace_geometry(const Geometry &g);
+    /// Writes nine floats per leaf slot: the vertices of triangle
+    /// bvh.prim_ids[i] at out[9 i] (out holds 9 * bvh.prim_ids.size()).
+    /// Geometry must be triangles with valid indices.
+    void copy_triangles(const Bvh &bvh, float *out) const;
+    /// The copy the traversals read, or NULL to read the caller's buffers.
+    const float *triangle_copy() const { return triangles_.empty() ? nullptr : triangles_.data(); }
 
     Scheduler &scheduler_;
     Geometry geometry_;
     bool geometry_set_ = false;
     Bvh bvh_;
     WideBvh wide_; ///< built when params.layout was AACBVH_LAYOUT_WIDE4 at the last build or refit
+    /// Triangles in leaf order (9 floats per slot), kept when
+    /// params.triangle_storage was AACBVH_TRIANGLES_COPIED at the last build or refit.
+    Array<float> triangles_;
     bool valid_ = false;        ///< bvh_ matches geometry_ (built or refitted since the last set)
     bool has_topology_ = false; ///< bvh_ holds a tree (possibly stale)
     GeometryKind built_kind_ = GeometryKind::None;

@@ -19,6 +19,7 @@ bool is_int_key(int32_t key) {
     case AACBVH_PARAM_PLOC_RADIUS:
     case AACBVH_PARAM_SKIP_INVALID_PRIMITIVES:
     case AACBVH_PARAM_TRAVERSAL_LAYOUT:
+    case AACBVH_PARAM_TRIANGLE_STORAGE:
         return true;
     default:
         return false;
@@ -83,6 +84,12 @@ void Params::set_int(int32_t key, int64_t value) {
                    std::to_string(value));
         layout = aacbvh_layout(value);
         break;
+    case AACBVH_PARAM_TRIANGLE_STORAGE:
+        if (value != AACBVH_TRIANGLES_REFERENCED && value != AACBVH_TRIANGLES_COPIED)
+            reject("triangle storage must be AACBVH_TRIANGLES_REFERENCED (0) or AACBVH_TRIANGLES_COPIED (1), got " +
+                   std::to_string(value));
+        triangle_storage = aacbvh_triangle_storage(value);
+        break;
     default:
         reject("unknown parameter");
     }
@@ -124,6 +131,7 @@ int64_t Params::get_int(int32_t key) const {
     case AACBVH_PARAM_PLOC_RADIUS: return ploc_radius;
     case AACBVH_PARAM_SKIP_INVALID_PRIMITIVES: return skip_invalid ? 1 : 0;
     case AACBVH_PARAM_TRAVERSAL_LAYOUT: return layout;
+    case AACBVH_PARAM_TRIANGLE_STORAGE: return triangle_storage;
     default: reject("unknown parameter");
     }
 }

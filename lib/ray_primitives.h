@@ -1,5 +1,7 @@
 // What both traversals (binary and wide) share: which rays are valid, the
-// miss record, and the leaf-primitive tests for triangles and boxes.
+// miss record, and the leaf-primitive tests for triangles and boxes. The
+// traversals hand the adapters a leaf slot (an index into Bvh::prim_ids);
+// each adapter finds that slot's primitive its own way.
 #pragma once
 
 #include <cmath>
@@ -31,22 +33,38 @@ inline void set_miss(aacbvh_hit &hit) {
 /// Leaf tests of triangle geometry: the watertight test on the caller's vertices.
 struct TrianglePrimitives {
     const Geometry &geometry;
+    const uint32_t *prim_ids;
     TriangleRay ray;
 
-    bool intersect(uint32_t prim, float tmin, float tmax, float &t, float &u, float &v) const {
+    bool intersect(uint32_t slot, float tmin, float tmax, float &t, float &u, float &v) const {
         const float *p[3];
-        geometry.triangle(prim, p);
+        geometry.triangle(prim_ids[slot], p);
         return intersect_triangle(ray, p[0], p[1], p[2], tmin, tmax, t, u, v);
+    }
+};
+
+/// Leaf tests of triangle geometry from the BVH's own copy
+/// (AACBVH_TRIANGLES_COPIED): slot i's three vertices are the nine floats at
+/// triangles[9 i], so a leaf's triangles are contiguous. Same test, same
+/// vertices as TrianglePrimitives, hence the same results.
+struct CopiedTrianglePrimitives {
+    const float *triangles;
+    TriangleRay ray;
+
+    bool intersect(uint32_t slot, float tmin, float tmax, float &t, float &u, float &v) const {
+        const float *p = triangles + 9 * size_t(slot);
+        return intersect_triangle(ray, p, p + 3, p + 6, tmin, tmax, t, u, v);
     }
 };
 
 /// Leaf tests of box geometry: t is where the ray enters the box (clamped to tmin).
 struct BoxPrimitives {
     const Geometry &geometry;
+    const uint32_t *prim_ids;
     const BoxRay &ray;
 
-    bool intersect(uint32_t prim, float tmin, float tmax, float &t, float &u, float &v) const {
-        const float *b = geometry.box_ptr(prim);
+    bool intersect(uint32_t slot, float tmin, float tmax, float &t, float &u, float &v) const {
+        const float *b = geometry.box_ptr(prim_ids[slot]);
         u = 0.0f;
         v = 0.0f;
         return ray_box_primitive(ray, b, b + 3, tmin, tmax, t);

@@ -68,7 +68,7 @@ bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, fl
                 const uint32_t end = node.first + node.count;
                 for (uint32_t i = node.first; i < end; ++i) {
                     float t, u, v;
-                    if (prims.intersect(prim_ids[i], tmin, tmax, t, u, v)) {
+                    if (prims.intersect(i, tmin, tmax, t, u, v)) {
                         found = true;
                         if (AnyHit) break;
                         tmax = t;
@@ -113,32 +113,36 @@ bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, fl
 }
 
 template <bool AnyHit>
-bool query(const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray, aacbvh_hit &hit,
-           TraversalCounters *counters) {
+bool query(const Bvh &bvh, const Geometry &geometry, const float *triangles, const aacbvh_ray &ray,
+           aacbvh_hit &hit, TraversalCounters *counters) {
     if (bvh.empty() || geometry.kind == GeometryKind::None || !ray_is_valid(ray)) {
         set_miss(hit);
         return false;
     }
     const BoxRay box_ray = make_box_ray(ray.org, ray.dir);
     if (geometry.kind == GeometryKind::Boxes) {
-        const BoxPrimitives prims{geometry, box_ray};
+        const BoxPrimitives prims{geometry, bvh.prim_ids.data(), box_ray};
         return traverse<AnyHit>(bvh, prims, box_ray, ray.tmin, ray.tmax, hit, counters);
     }
-    const TrianglePrimitives prims{geometry, make_triangle_ray(ray.org, ray.dir)};
+    if (triangles) {
+        const CopiedTrianglePrimitives prims{triangles, make_triangle_ray(ray.org, ray.dir)};
+        return traverse<AnyHit>(bvh, prims, box_ray, ray.tmin, ray.tmax, hit, counters);
+    }
+    const TrianglePrimitives prims{geometry, bvh.prim_ids.data(), make_triangle_ray(ray.org, ray.dir)};
     return traverse<AnyHit>(bvh, prims, box_ray, ray.tmin, ray.tmax, hit, counters);
 }
 
 } // namespace
 
 void intersect_ray(const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray, aacbvh_hit &hit,
-                   TraversalCounters *counters) {
-    query<false>(bvh, geometry, ray, hit, counters);
+                   TraversalCounters *counters, const float *triangles) {
+    query<false>(bvh, geometry, triangles, ray, hit, counters);
 }
 
 bool occluded_ray(const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
-                  TraversalCounters *counters) {
+                  TraversalCounters *counters, const float *triangles) {
     aacbvh_hit unused;
-    return query<true>(bvh, geometry, ray, unused, counters);
+    return query<true>(bvh, geometry, triangles, ray, unused, counters);
 }
 
 } // namespace aacbvh

@@ -17,11 +17,15 @@ struct TraversalCounters {
     uint64_t primitive_tests = 0;
 };
 
-/// Closest hit of one ray; counters may be NULL.
+/// Closest hit of one ray; counters may be NULL. `triangles`, when not NULL,
+/// is the BVH's copy of triangle geometry (9 floats per leaf slot, in
+/// Bvh::prim_ids order) and is read instead of the caller's buffers, with the
+/// same results.
 void intersect_ray(const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray, aacbvh_hit &hit,
-                   TraversalCounters *counters = nullptr);
-/// Any hit of one ray: true if something lies in [tmin, tmax]; counters may be NULL.
+                   TraversalCounters *counters = nullptr, const float *triangles = nullptr);
+/// Any hit of one ray: true if something lies in [tmin, tmax]; counters and
+/// triangles as for intersect_ray().
 bool occluded_ray(const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
-                  TraversalCounters *counters = nullptr);
+                  TraversalCounters *counters = nullptr, const float *triangles = nullptr);
 
 } // namespace aacbvh

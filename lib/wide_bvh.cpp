@@ -342,7 +342,7 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
             const uint32_t end = current.child + current.count;
             for (uint32_t i = current.child; i < end; ++i) {
                 float t, u, v;
-                if (prims.intersect(prim_ids[i], tmin, tmax, t, u, v)) {
+                if (prims.intersect(i, tmin, tmax, t, u, v)) {
                     found = true;
                     if (AnyHit) break;
                     tmax = t;
@@ -386,7 +386,8 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
 }
 
 template <bool AnyHit>
-bool query(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray, aacbvh_hit &hit) {
+bool query(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const float *triangles,
+           const aacbvh_ray &ray, aacbvh_hit &hit) {
     if (wide.node_count() == 0 || geometry.kind == GeometryKind::None || !ray_is_valid(ray)) {
         set_miss(hit);
         return false;
@@ -394,23 +395,28 @@ bool query(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const 
     const BoxRay box_ray = make_box_ray(ray.org, ray.dir);
     const WideRay wide_ray = make_wide_ray(box_ray);
     if (geometry.kind == GeometryKind::Boxes) {
-        const BoxPrimitives prims{geometry, box_ray};
+        const BoxPrimitives prims{geometry, bvh.prim_ids.data(), box_ray};
         return traverse<AnyHit>(wide, bvh, prims, wide_ray, ray.tmin, ray.tmax, hit);
     }
-    const TrianglePrimitives prims{geometry, make_triangle_ray(ray.org, ray.dir)};
+    if (triangles) {
+        const CopiedTrianglePrimitives prims{triangles, make_triangle_ray(ray.org, ray.dir)};
+        return traverse<AnyHit>(wide, bvh, prims, wide_ray, ray.tmin, ray.tmax, hit);
+    }
+    const TrianglePrimitives prims{geometry, bvh.prim_ids.data(), make_triangle_ray(ray.org, ray.dir)};
     return traverse<AnyHit>(wide, bvh, prims, wide_ray, ray.tmin, ray.tmax, hit);
 }
 
 } // namespace
 
 void intersect_ray_wide(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
-                        aacbvh_hit &hit) {
-    query<false>(wide, bvh, geometry, ray, hit);
+                        aacbvh_hit &hit, const float *triangles) {
+    query<false>(wide, bvh, geometry, triangles, ray, hit);
 }
 
-bool occluded_ray_wide(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray) {
+bool occluded_ray_wide(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
+                       const float *triangles) {
     aacbvh_hit unused;
-    return query<true>(wide, bvh, geometry, ray, unused);
+    return query<true>(wide, bvh, geometry, triangles, ray, unused);
 }
 
 } // namespace aacbvh

@@ -2,8 +2,8 @@
 // finished binary Bvh, whose nodes hold their four children's boxes as a
 // structure of arrays so that one ray is tested against all four at once
 // (SSE on x86-64, a scalar loop elsewhere). Leaves stay the binary leaves:
-// they point into the same primitive index array, and triangles are still
-// read from the caller's buffers.
+// they point into the same primitive index array, and triangles are read
+// from the caller's buffers or from the BVH's copy (AACBVH_TRIANGLES_COPIED).
 //
 // Collapsing (as for the BVH4 of Wald, Benthin, Boulos, "Getting Rid of
 // Packets", RT 2008, and Embree): a wide node starts as its binary node's two
@@ -76,10 +76,11 @@ private:
 
 /// Closest hit of one ray through the wide tree of `bvh` (same results as
 /// intersect_ray() on the binary tree: same t, u, v; prim_id may differ only
-/// between hits at exactly the same t).
+/// between hits at exactly the same t). `triangles` as for intersect_ray().
 void intersect_ray_wide(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
-                        aacbvh_hit &hit);
+                        aacbvh_hit &hit, const float *triangles = nullptr);
 /// Any hit of one ray through the wide tree (same results as occluded_ray()).
-bool occluded_ray_wide(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray);
+bool occluded_ray_wide(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
+                       const float *triangles = nullptr);
 
 } // namespace aacbvh

@@ -68,6 +68,11 @@
     X(AACBVH_LAYOUT_BINARY == 0)                                     \
     X(AACBVH_LAYOUT_WIDE4 == 1)                                      \
     X(sizeof(aacbvh_layout) == 4)                                    \
+    X(AACBVH_PARAM_TRIANGLE_STORAGE == 10)                           \
+    X(AACBVH_TRIANGLES_REFERENCED == 0)                              \
+    X(AACBVH_TRIANGLES_COPIED == 1)                                  \
+    X(AACBVH_TRIANGLE_STORAGE_MAX_ENUM == 0x7FFFFFFF)                \
+    X(sizeof(aacbvh_triangle_storage) == 4)                          \
     X(AACBVH_PARAM_MAX_ENUM == 0x7FFFFFFF)                           \
     X(AACBVH_INVALID_ID == 0xFFFFFFFFu)
 

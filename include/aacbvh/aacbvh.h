@@ -187,6 +187,9 @@ typedef enum aacbvh_param {
      *  nodes of aacbvh_bvh_get_nodes() exist in every layout. Default
      *  AACBVH_LAYOUT_BINARY. */
     AACBVH_PARAM_TRAVERSAL_LAYOUT = 9,
+    /** int, an aacbvh_triangle_storage: where ray queries read triangles
+     *  from. Default AACBVH_TRIANGLES_REFERENCED. */
+    AACBVH_PARAM_TRIANGLE_STORAGE = 10,
     AACBVH_PARAM_MAX_ENUM = 0x7FFFFFFF
 } aacbvh_param;
 
@@ -200,6 +203,19 @@ typedef enum aacbvh_layout {
     AACBVH_LAYOUT_WIDE4 = 1,
     AACBVH_LAYOUT_MAX_ENUM = 0x7FFFFFFF
 } aacbvh_layout;
+
+/** Where ray queries read triangles from. Values are pinned forever. Both
+ *  give bit-identical results. */
+typedef enum aacbvh_triangle_storage {
+    /** Queries read the caller's buffers: no copy. */
+    AACBVH_TRIANGLES_REFERENCED = 0,
+    /** The BVH keeps the three vertices of every triangle (36 bytes each) in
+     *  leaf order, made by build and refreshed by refit: faster rays, more
+     *  memory (counted in aacbvh_stats.memory_bytes). Ignored for box
+     *  geometry. */
+    AACBVH_TRIANGLES_COPIED = 1,
+    AACBVH_TRIANGLE_STORAGE_MAX_ENUM = 0x7FFFFFFF
+} aacbvh_triangle_storage;
 
 /** Sets an integer parameter. Returns AACBVH_OK or AACBVH_ERROR_INVALID_ARGUMENT. */
 AACBVH_API aacbvh_status aacbvh_bvh_set_param_int(aacbvh_bvh *bvh, aacbvh_param param, int64_t value);
