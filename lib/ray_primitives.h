@@ -71,4 +71,27 @@ struct BoxPrimitives {
     }
 };
 
+/// Calls visit(prims) with the leaf-test adapter that fits the geometry:
+/// boxes, the BVH's own triangle copy (when `triangles` is non-null), or the
+/// caller's triangles. Both traversals dispatch here.
+template <class Visit>
+bool with_primitives(const Geometry &geometry, const uint32_t *prim_ids, const float *triangles,
+                     const aacbvh_ray &ray, const BoxRay &box_ray, Visit &&visit) {
+    if (geometry.kind == GeometryKind::Boxes) return visit(BoxPrimitives{geometry, prim_ids, box_ray});
+    if (triangles) return visit(CopiedTrianglePrimitives{triangles, make_triangle_ray(ray.org, ray.dir)});
+    return visit(TrianglePrimitives{geometry, prim_ids, make_triangle_ray(ray.org, ray.dir)});
+}
+
+/// The closest-hit record at the end of a traversal.
+inline void write_closest(bool found, float t, float u, float v, uint32_t prim, aacbvh_hit &hit) {
+    if (!found) {
+        set_miss(hit);
+        return;
+    }
+    hit.t = t;
+    hit.u = u;
+    hit.v = v;
+    hit.prim_id = prim;
+}
+
 } // namespace aacbvh

@@ -99,16 +99,7 @@ bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, fl
         counters->nodes_visited += boxes_tested;
         counters->primitive_tests += prims_tested;
     }
-    if (!AnyHit) {
-        if (found) {
-            hit.t = tmax;
-            hit.u = best_u;
-            hit.v = best_v;
-            hit.prim_id = best_prim;
-        } else {
-            set_miss(hit);
-        }
-    }
+    if (!AnyHit) write_closest(found, tmax, best_u, best_v, best_prim, hit);
     return found;
 }
 
@@ -120,16 +111,9 @@ bool query(const Bvh &bvh, const Geometry &geometry, const float *triangles, con
         return false;
     }
     const BoxRay box_ray = make_box_ray(ray.org, ray.dir);
-    if (geometry.kind == GeometryKind::Boxes) {
-        const BoxPrimitives prims{geometry, bvh.prim_ids.data(), box_ray};
+    return with_primitives(geometry, bvh.prim_ids.data(), triangles, ray, box_ray, [&](const auto &prims) {
         return traverse<AnyHit>(bvh, prims, box_ray, ray.tmin, ray.tmax, hit, counters);
-    }
-    if (triangles) {
-        const CopiedTrianglePrimitives prims{triangles, make_triangle_ray(ray.org, ray.dir)};
-        return traverse<AnyHit>(bvh, prims, box_ray, ray.tmin, ray.tmax, hit, counters);
-    }
-    const TrianglePrimitives prims{geometry, bvh.prim_ids.data(), make_triangle_ray(ray.org, ray.dir)};
-    return traverse<AnyHit>(bvh, prims, box_ray, ray.tmin, ray.tmax, hit, counters);
+    });
 }
 
 } // namespace

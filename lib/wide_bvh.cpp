@@ -372,16 +372,7 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
         if (!next) break;
     }
 
-    if (!AnyHit) {
-        if (found) {
-            hit.t = tmax;
-            hit.u = best_u;
-            hit.v = best_v;
-            hit.prim_id = best_prim;
-        } else {
-            set_miss(hit);
-        }
-    }
+    if (!AnyHit) write_closest(found, tmax, best_u, best_v, best_prim, hit);
     return found;
 }
 
@@ -394,16 +385,9 @@ bool query(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const 
     }
     const BoxRay box_ray = make_box_ray(ray.org, ray.dir);
     const WideRay wide_ray = make_wide_ray(box_ray);
-    if (geometry.kind == GeometryKind::Boxes) {
-        const BoxPrimitives prims{geometry, bvh.prim_ids.data(), box_ray};
+    return with_primitives(geometry, bvh.prim_ids.data(), triangles, ray, box_ray, [&](const auto &prims) {
         return traverse<AnyHit>(wide, bvh, prims, wide_ray, ray.tmin, ray.tmax, hit);
-    }
-    if (triangles) {
-        const CopiedTrianglePrimitives prims{triangles, make_triangle_ray(ray.org, ray.dir)};
-        return traverse<AnyHit>(wide, bvh, prims, wide_ray, ray.tmin, ray.tmax, hit);
-    }
-    const TrianglePrimitives prims{geometry, bvh.prim_ids.data(), make_triangle_ray(ray.org, ray.dir)};
-    return traverse<AnyHit>(wide, bvh, prims, wide_ray, ray.tmin, ray.tmax, hit);
+    });
 }
 
 } // namespace
