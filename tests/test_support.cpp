@@ -509,6 +509,33 @@ int ts_check_tree(const aacbvh_bvh *bvh, const float *prim_boxes, size_t prim_to
     return 1;
 }
 
+void ts_coords_bounds(const float *coords, size_t coord_count, float lo[3], float hi[3]) {
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = coord_count ? INFINITY : -1.0f;
+        hi[k] = coord_count ? -INFINITY : 1.0f;
+    }
+    for (size_t i = 0; i + 2 < coord_count; i += 3)
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], coords[i + k]);
+            hi[k] = std::max(hi[k], coords[i + k]);
+        }
+}
+
+void ts_jitter_coords(float *coords, size_t coord_count, float scale, uint64_t seed) {
+    ts_rng rng;
+    ts_rng_seed(&rng, seed);
+    for (size_t i = 0; i < coord_count; ++i) coords[i] += scale * ts_rng_range(&rng, -1.0f, 1.0f);
+}
+
+uint64_t ts_memory_bytes(const aacbvh_bvh *bvh) {
+    aacbvh_stats st;
+    std::memset(&st, 0, sizeof st);
+    st.struct_size = sizeof st;
+    const aacbvh_status s = aacbvh_bvh_get_stats(bvh, &st);
+    if (s != AACBVH_OK) fail_msg("aacbvh_bvh_get_stats: %s", aacbvh_status_string(s));
+    return st.memory_bytes;
+}
+
 void ts_create(uint32_t threads, aacbvh_context **ctx, aacbvh_bvh **bvh) {
     aacbvh_status s = aacbvh_context_create(threads, ctx);
     if (s != AACBVH_OK) fail_msg("aacbvh_context_create: %s", aacbvh_status_string(s));

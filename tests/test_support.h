@@ -118,6 +118,15 @@ int ts_check_tree(const aacbvh_bvh *bvh, const float *prim_boxes, size_t prim_to
 /** A context and a BVH on it, or fails the running cmocka test. */
 void ts_create(uint32_t threads, aacbvh_context **ctx, aacbvh_bvh **bvh);
 
+/** Bounds of xyz coordinates (coord_count floats); (-1, 1) on each axis when empty. */
+void ts_coords_bounds(const float *coords, size_t coord_count, float lo[3], float hi[3]);
+
+/** Moves every coordinate by up to +-scale (deterministic in the seed). */
+void ts_jitter_coords(float *coords, size_t coord_count, float scale, uint64_t seed);
+
+/** stats.memory_bytes of a built BVH, or fails the running cmocka test. */
+uint64_t ts_memory_bytes(const aacbvh_bvh *bvh);
+
 /** Fails the running cmocka test with the status names when `got != want`. */
 #define TS_EXPECT_STATUS(got, want)                                                   \
     do {                                                                              \

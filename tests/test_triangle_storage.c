@@ -40,20 +40,6 @@ static const aacbvh_builder kBuilders[] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER
 static const aacbvh_layout kLayouts[] = {AACBVH_LAYOUT_BINARY, AACBVH_LAYOUT_WIDE4};
 enum { kRays = 4000 };
 
-static void bounds_of(const float *coords, size_t coord_count, float lo[3], float hi[3]) {
-    size_t i;
-    int k;
-    for (k = 0; k < 3; ++k) {
-        lo[k] = coord_count ? INFINITY : -1.0f;
-        hi[k] = coord_count ? -INFINITY : 1.0f;
-    }
-    for (i = 0; i + 2 < coord_count; i += 3)
-        for (k = 0; k < 3; ++k) {
-            if (coords[i + k] < lo[k]) lo[k] = coords[i + k];
-            if (coords[i + k] > hi[k]) hi[k] = coords[i + k];
-        }
-}
-
 /* Rays from around the box (lo, hi): half aim at a vertex of the scene, the
  * rest at random points; some run along an axis, some have bounded
  * intervals. */
@@ -64,7 +50,7 @@ static aacbvh_ray *make_rays(const float *coords, size_t coord_count, size_t cou
     size_t i;
     int k;
     assert_non_null(rays);
-    bounds_of(coords, coord_count, lo, hi);
+    ts_coords_bounds(coords, coord_count, lo, hi);
     ts_rng_seed(&rng, seed);
     for (i = 0; i < count; ++i) {
         aacbvh_ray *r = &rays[i];
@@ -98,14 +84,6 @@ static aacbvh_ray *make_rays(const float *coords, size_t coord_count, size_t cou
         }
     }
     return rays;
-}
-
-static uint64_t memory_of(const aacbvh_bvh *bvh) {
-    aacbvh_stats st;
-    memset(&st, 0, sizeof st);
-    st.struct_size = sizeof st;
-    TS_EXPECT_STATUS(aacbvh_bvh_get_stats(bvh, &st), AACBVH_OK);
-    return st.memory_bytes;
 }
 
 static aacbvh_bvh *make_bvh(aacbvh_builder builder, aacbvh_layout layout, aacbvh_triangle_storage storage) {
@@ -149,13 +127,6 @@ static size_t compare(const aacbvh_bvh *referenced, const aacbvh_bvh *copied, co
     return hits;
 }
 
-static void wiggle(float *coords, size_t coord_count, float scale, uint64_t seed) {
-    ts_rng rng;
-    size_t i;
-    ts_rng_seed(&rng, seed);
-    for (i = 0; i < coord_count; ++i) coords[i] += scale * ts_rng_range(&rng, -1.0f, 1.0f);
-}
-
 static void check_mesh(ts_mesh *mesh, const char *name, uint64_t seed) {
     size_t bi, li;
     const size_t coords = 3 * mesh->vertex_count;
@@ -186,7 +157,7 @@ static void check_mesh(ts_mesh *mesh, const char *name, uint64_t seed) {
             assert_true(ts_tree_equal(&tr, &tc));
             ts_tree_free(&tr);
             ts_tree_free(&tc);
-            assert_true(memory_of(cop) == memory_of(ref) + 36u * (uint64_t)mesh->triangle_count);
+            assert_true(ts_memory_bytes(cop) == ts_memory_bytes(ref) + 36u * (uint64_t)mesh->triangle_count);
 
             snprintf(what, sizeof what, "%s builder %d layout %d", name, (int)kBuilders[bi], (int)kLayouts[li]);
             rays = make_rays(mesh->vertices, coords, kRays, seed + 17 * bi + li);
@@ -195,9 +166,9 @@ static void check_mesh(ts_mesh *mesh, const char *name, uint64_t seed) {
             free(rays);
 
             /* Move the vertices; both refit; the copy follows. */
-            bounds_of(mesh->vertices, coords, lo, hi);
-            wiggle(mesh->vertices, coords, 0.05f * (hi[0] - lo[0] + hi[1] - lo[1] + hi[2] - lo[2] + 1e-3f),
-                   seed + 99);
+            ts_coords_bounds(mesh->vertices, coords, lo, hi);
+            ts_jitter_coords(mesh->vertices, coords,
+                             0.05f * (hi[0] - lo[0] + hi[1] - lo[1] + hi[2] - lo[2] + 1e-3f), seed + 99);
             TS_EXPECT_STATUS(aacbvh_bvh_refit(ref), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_refit(cop), AACBVH_OK);
             snprintf(what, sizeof what, "%s (refitted) builder %d layout %d", name, (int)kBuilders[bi],
@@ -212,7 +183,7 @@ static void check_mesh(ts_mesh *mesh, const char *name, uint64_t seed) {
                              AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_refit(cop), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_refit(ref), AACBVH_OK);
-            assert_true(memory_of(ref) == memory_of(cop) + 36u * (uint64_t)mesh->triangle_count);
+            assert_true(ts_memory_bytes(ref) == ts_memory_bytes(cop) + 36u * (uint64_t)mesh->triangle_count);
             compare(cop, ref, rays, kRays, what);
             free(rays);
 
@@ -288,11 +259,11 @@ static void test_boxes(void **state) {
         TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(cop, boxes, count, 24), AACBVH_OK);
         TS_EXPECT_STATUS(aacbvh_bvh_build(ref), AACBVH_OK);
         TS_EXPECT_STATUS(aacbvh_bvh_build(cop), AACBVH_OK);
-        assert_true(memory_of(cop) == memory_of(ref));
+        assert_true(ts_memory_bytes(cop) == ts_memory_bytes(ref));
         rays = make_rays(boxes, 6 * count, kRays, 211 + li);
         assert_true(compare(ref, cop, rays, kRays, "boxes") > 0);
         TS_EXPECT_STATUS(aacbvh_bvh_refit(cop), AACBVH_OK);
-        assert_true(memory_of(cop) == memory_of(ref));
+        assert_true(ts_memory_bytes(cop) == ts_memory_bytes(ref));
         compare(ref, cop, rays, kRays, "boxes (refitted)");
         free(rays);
         free(boxes);
@@ -311,7 +282,7 @@ static void test_empty_scene(void **state) {
     TS_EXPECT_STATUS(aacbvh_bvh_set_triangles(cop, NULL, 0, 12, NULL, 0), AACBVH_OK);
     TS_EXPECT_STATUS(aacbvh_bvh_build(ref), AACBVH_OK);
     TS_EXPECT_STATUS(aacbvh_bvh_build(cop), AACBVH_OK);
-    assert_true(memory_of(cop) == memory_of(ref));
+    assert_true(ts_memory_bytes(cop) == ts_memory_bytes(ref));
     compare(ref, cop, &ray, 1, "empty");
     aacbvh_bvh_destroy(ref);
     aacbvh_bvh_destroy(cop);

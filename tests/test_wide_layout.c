@@ -106,20 +106,6 @@ static aacbvh_ray *make_rays(const float lo[3], const float hi[3], const float *
     return rays;
 }
 
-static void bounds_of(const float *coords, size_t coord_count, float lo[3], float hi[3]) {
-    size_t i;
-    int k;
-    for (k = 0; k < 3; ++k) {
-        lo[k] = coord_count ? coords[k] : -1.0f;
-        hi[k] = coord_count ? coords[k] : 1.0f;
-    }
-    for (i = 0; i + 2 < coord_count; i += 3)
-        for (k = 0; k < 3; ++k) {
-            if (coords[i + k] < lo[k]) lo[k] = coords[i + k];
-            if (coords[i + k] > hi[k]) hi[k] = coords[i + k];
-        }
-}
-
 /* ------------------------------------------------------------------ */
 /* Comparison                                                          */
 /* ------------------------------------------------------------------ */
@@ -175,26 +161,10 @@ static void set_builder(aacbvh_bvh *bvh, aacbvh_builder builder, uint32_t leaf, 
     TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, layout), AACBVH_OK);
 }
 
-static uint64_t memory_of(const aacbvh_bvh *bvh) {
-    aacbvh_stats st;
-    memset(&st, 0, sizeof st);
-    st.struct_size = sizeof st;
-    TS_EXPECT_STATUS(aacbvh_bvh_get_stats(bvh, &st), AACBVH_OK);
-    return st.memory_bytes;
-}
-
 static const aacbvh_builder kBuilders[] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_AAC_FAST,
                                            AACBVH_BUILDER_BINNED_SAH};
 static const uint32_t kLeafSizes[] = {1, 4};
 enum { kRays = 3000 };
-
-/* Moves every vertex a little (deterministic in the seed). */
-static void wiggle(float *coords, size_t coord_count, float scale, uint64_t seed) {
-    ts_rng rng;
-    size_t i;
-    ts_rng_seed(&rng, seed);
-    for (i = 0; i < coord_count; ++i) coords[i] += scale * ts_rng_range(&rng, -1.0f, 1.0f);
-}
 
 /* Builds a mesh with both layouts for every builder and leaf size, compares,
  * moves the vertices, refits and compares again. */
@@ -223,21 +193,21 @@ static void check_mesh(ts_mesh *mesh, const char *name, uint64_t seed) {
                              AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_build(binary), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_build(wide), AACBVH_OK);
-            if (mesh->triangle_count > 0) assert_true(memory_of(wide) > memory_of(binary));
+            if (mesh->triangle_count > 0) assert_true(ts_memory_bytes(wide) > ts_memory_bytes(binary));
 
-            bounds_of(mesh->vertices, coords, lo, hi);
+            ts_coords_bounds(mesh->vertices, coords, lo, hi);
             rays = make_rays(lo, hi, mesh->vertices, coords, kRays, seed + 17 * bi + li);
             snprintf(what, sizeof what, "%s builder %d leaf %u", name, (int)kBuilders[bi], kLeafSizes[li]);
             compare_layouts(binary, wide, rays, kRays, what);
             free(rays);
 
             /* Move the vertices; both refit; compare on new rays. */
-            bounds_of(mesh->vertices, coords, lo, hi);
-            wiggle(mesh->vertices, coords, 0.05f * (hi[0] - lo[0] + hi[1] - lo[1] + hi[2] - lo[2] + 1e-3f),
-                   seed + 99);
+            ts_coords_bounds(mesh->vertices, coords, lo, hi);
+            ts_jitter_coords(mesh->vertices, coords,
+                             0.05f * (hi[0] - lo[0] + hi[1] - lo[1] + hi[2] - lo[2] + 1e-3f), seed + 99);
             TS_EXPECT_STATUS(aacbvh_bvh_refit(binary), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_refit(wide), AACBVH_OK);
-            bounds_of(mesh->vertices, coords, lo, hi);
+            ts_coords_bounds(mesh->vertices, coords, lo, hi);
             rays = make_rays(lo, hi, mesh->vertices, coords, kRays, seed + 1000 + 17 * bi + li);
             snprintf(what, sizeof what, "%s (refitted) builder %d leaf %u", name, (int)kBuilders[bi],
                      kLeafSizes[li]);
@@ -328,7 +298,7 @@ static void test_boxes(void **state) {
             TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(wide, boxes, count, 24), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_build(binary), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_build(wide), AACBVH_OK);
-            assert_true(memory_of(wide) > memory_of(binary));
+            assert_true(ts_memory_bytes(wide) > ts_memory_bytes(binary));
             /* Coordinates of box corners: rays start on and aim at faces. */
             rays = make_rays(lo, hi, boxes, 6 * count, kRays, 51 + bi * 2 + li);
             snprintf(what, sizeof what, "boxes builder %d leaf %u", (int)kBuilders[bi], kLeafSizes[li]);
@@ -401,29 +371,29 @@ static void test_layout_switch(void **state) {
                      AACBVH_OK);
     TS_EXPECT_STATUS(aacbvh_bvh_build(binary), AACBVH_OK);
     TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
-    mem_binary = memory_of(bvh);
-    assert_int_equal(mem_binary, memory_of(binary));
+    mem_binary = ts_memory_bytes(bvh);
+    assert_int_equal(mem_binary, ts_memory_bytes(binary));
 
-    bounds_of(mesh.vertices, 3 * mesh.vertex_count, lo, hi);
+    ts_coords_bounds(mesh.vertices, 3 * mesh.vertex_count, lo, hi);
     rays = make_rays(lo, hi, mesh.vertices, 3 * mesh.vertex_count, kRays, 72);
 
     /* Switched to WIDE4 and refitted: the wide tree appears. */
     TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, AACBVH_LAYOUT_WIDE4), AACBVH_OK);
-    assert_int_equal(memory_of(bvh), mem_binary);
+    assert_int_equal(ts_memory_bytes(bvh), mem_binary);
     TS_EXPECT_STATUS(aacbvh_bvh_refit(bvh), AACBVH_OK);
-    mem_wide = memory_of(bvh);
+    mem_wide = ts_memory_bytes(bvh);
     assert_true(mem_wide > mem_binary);
     compare_layouts(binary, bvh, rays, kRays, "switched to wide4 by refit");
 
     /* Rebuilt with WIDE4: same memory as after the refit. */
     TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
-    assert_int_equal(memory_of(bvh), mem_wide);
+    assert_int_equal(ts_memory_bytes(bvh), mem_wide);
     compare_layouts(binary, bvh, rays, kRays, "rebuilt with wide4");
 
     /* Back to BINARY: the wide tree is freed at the next build. */
     TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, AACBVH_LAYOUT_BINARY), AACBVH_OK);
     TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
-    assert_int_equal(memory_of(bvh), mem_binary);
+    assert_int_equal(ts_memory_bytes(bvh), mem_binary);
     compare_layouts(binary, bvh, rays, kRays, "back to binary");
 
     free(rays);
