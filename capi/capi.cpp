@@ -143,13 +143,13 @@ const char *aacbvh_bvh_last_error(const aacbvh_bvh *bvh) {
 aacbvh_status aacbvh_bvh_set_param_int(aacbvh_bvh *bvh, aacbvh_param param, int64_t value) {
     AACBVH_REQUIRE_HANDLE(bvh);
     const int32_t key = enum_value(param);
-    return guarded(bvh, [&] { bvh->object.params.set_int(key, value); });
+    return guarded(bvh, [&] { bvh->object.set_param_int(key, value); });
 }
 
 aacbvh_status aacbvh_bvh_set_param_float(aacbvh_bvh *bvh, aacbvh_param param, double value) {
     AACBVH_REQUIRE_HANDLE(bvh);
     const int32_t key = enum_value(param);
-    return guarded(bvh, [&] { bvh->object.params.set_float(key, value); });
+    return guarded(bvh, [&] { bvh->object.set_param_float(key, value); });
 }
 
 aacbvh_status aacbvh_bvh_get_param_int(const aacbvh_bvh *bvh, aacbvh_param param, int64_t *out) {

@@ -322,6 +322,8 @@ int main(int argc, char **argv) {
     if (!check(aacbvh_context_create((uint32_t)threads, &ctx), "aacbvh_context_create", NULL) ||
         !check(aacbvh_bvh_create(ctx, &bvh), "aacbvh_bvh_create", NULL) ||
         !check(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, builder), "set builder", bvh) ||
+        /* Rebuilds reuse the memory the previous build freed (no fresh pages). */
+        !check(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_KEEP_BUILD_MEMORY, 1), "keep build memory", bvh) ||
         /* The engine owns the vertex buffer and moves the vertices in place. */
         !check(aacbvh_bvh_set_triangles(bvh, m.vertices, m.vertex_count, 12, m.indices, m.triangle_count),
                "aacbvh_bvh_set_triangles", bvh))

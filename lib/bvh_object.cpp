@@ -86,8 +86,24 @@ void BvhObject::copy_triangles(const Bvh &bvh, float *out) const {
     });
 }
 
+void BvhObject::set_param_int(int32_t key, int64_t value) {
+    params.set_int(key, value);
+    if (!params.keep_build_memory) kept_blocks_.release();
+}
+
 void BvhObject::build() {
     const auto start = std::chrono::steady_clock::now();
+    // With AACBVH_PARAM_KEEP_BUILD_MEMORY, big blocks come from and go back to
+    // kept_blocks_ for the whole build, the old tree's included; whatever this
+    // build did not reuse is freed when it ends, failed or not.
+    struct EndBuild {
+        BlockCache &cache;
+        ~EndBuild() { cache.end_build(); }
+    } end_build{kept_blocks_};
+    if (!params.keep_build_memory) kept_blocks_.release();
+    kept_blocks_.begin_build();
+    const BlockCache::Scope cached(params.keep_build_memory ? &kept_blocks_ : nullptr);
+
     BuildContext ctx(scheduler_, progress_, progress_user_);
     ctx.report(0.0);
 

@@ -8,6 +8,7 @@
 #include <mutex>
 
 #include "aacbvh/aacbvh.h"
+#include "block_cache.h"
 #include "bvh.h"
 #include "geometry.h"
 #include "params.h"
@@ -20,7 +21,13 @@ class BvhObject {
 public:
     explicit BvhObject(Scheduler &scheduler) : scheduler_(scheduler) {}
 
+    /// Read freely; changed through set_param_int/float, which apply side
+    /// effects (setting AACBVH_PARAM_KEEP_BUILD_MEMORY to 0 frees the kept blocks).
     Params params;
+    void set_param_int(int32_t key, int64_t value);
+    void set_param_float(int32_t key, double value) { params.set_float(key, value); }
+    /// Bytes kept for the next build (AACBVH_PARAM_KEEP_BUILD_MEMORY).
+    size_t kept_build_bytes() const { return kept_blocks_.bytes(); }
 
     /// Argument checks only; contents are checked by build(). Throws Error.
     void set_triangles(const float *vertices, size_t vertex_count, size_t vertex_stride, const uint32_t *indices,
@@ -54,6 +61,7 @@ private:
     const float *triangle_copy() const { return triangles_.empty() ? nullptr : triangles_.data(); }
 
     Scheduler &scheduler_;
+    BlockCache kept_blocks_; ///< AACBVH_PARAM_KEEP_BUILD_MEMORY; first, so it outlives the arrays below
     Geometry geometry_;
     bool geometry_set_ = false;
     Bvh bvh_;

@@ -7,6 +7,9 @@
 // aligned and marked for transparent huge pages (one fault per 2 MiB instead
 // of per 4 KiB), as Embree does for its build memory.
 //
+// With a BlockCache installed on the thread (lib/block_cache.h), big blocks
+// are taken from it and given back to it instead of the system.
+//
 // Tests inject allocation failures through testing::alloc_fail_countdown
 // (tests/test_out_of_memory.cpp): every allocation made here consults it, at
 // the cost of one relaxed atomic load while it is unarmed.
@@ -21,6 +24,8 @@
 #include <vector>
 
 #include <sys/mman.h>
+
+#include "block_cache.h"
 
 namespace aacbvh {
 
@@ -83,6 +88,8 @@ inline void *allocate_build_memory(size_t bytes) {
     if (MemoryMeter *m = MemoryMeter::current()) m->add(int64_t(bytes));
     if (bytes < kHugePageBytes) return ::operator new(bytes);
     const size_t rounded = (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
+    if (BlockCache *cache = BlockCache::current())
+        if (void *kept = cache->take(rounded)) return kept;
     void *p = std::aligned_alloc(kHugePageBytes, rounded);
     if (!p) throw std::bad_alloc();
 #ifdef MADV_HUGEPAGE
@@ -96,6 +103,8 @@ inline void free_build_memory(void *p, size_t bytes) {
     if (MemoryMeter *m = MemoryMeter::current()) m->add(-int64_t(bytes));
     if (bytes < kHugePageBytes)
         ::operator delete(p);
+    else if (BlockCache *cache = BlockCache::current())
+        cache->keep(p, (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1));
     else
         std::free(p);
 }

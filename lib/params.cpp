@@ -20,6 +20,7 @@ bool is_int_key(int32_t key) {
     case AACBVH_PARAM_SKIP_INVALID_PRIMITIVES:
     case AACBVH_PARAM_TRAVERSAL_LAYOUT:
     case AACBVH_PARAM_TRIANGLE_STORAGE:
+    case AACBVH_PARAM_KEEP_BUILD_MEMORY:
         return true;
     default:
         return false;
@@ -90,6 +91,10 @@ void Params::set_int(int32_t key, int64_t value) {
                    std::to_string(value));
         triangle_storage = aacbvh_triangle_storage(value);
         break;
+    case AACBVH_PARAM_KEEP_BUILD_MEMORY:
+        if (value != 0 && value != 1) reject("keep-build-memory must be 0 or 1, got " + std::to_string(value));
+        keep_build_memory = value == 1;
+        break;
     default:
         reject("unknown parameter");
     }
@@ -132,6 +137,7 @@ int64_t Params::get_int(int32_t key) const {
     case AACBVH_PARAM_SKIP_INVALID_PRIMITIVES: return skip_invalid ? 1 : 0;
     case AACBVH_PARAM_TRAVERSAL_LAYOUT: return layout;
     case AACBVH_PARAM_TRIANGLE_STORAGE: return triangle_storage;
+    case AACBVH_PARAM_KEEP_BUILD_MEMORY: return keep_build_memory ? 1 : 0;
     default: reject("unknown parameter");
     }
 }

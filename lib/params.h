@@ -18,6 +18,7 @@ struct Params {
     bool skip_invalid = false;
     aacbvh_layout layout = AACBVH_LAYOUT_BINARY;
     aacbvh_triangle_storage triangle_storage = AACBVH_TRIANGLES_REFERENCED;
+    bool keep_build_memory = false;
 
     /// The paper's presets: HQ delta 20, f(n) = (20^0.6 / 2) n^0.4;
     /// Fast delta 4, f(n) = (4^0.7 / 2) n^0.3.

@@ -73,6 +73,7 @@
     X(AACBVH_TRIANGLES_COPIED == 1)                                  \
     X(AACBVH_TRIANGLE_STORAGE_MAX_ENUM == 0x7FFFFFFF)                \
     X(sizeof(aacbvh_triangle_storage) == 4)                          \
+    X(AACBVH_PARAM_KEEP_BUILD_MEMORY == 11)                          \
     X(AACBVH_PARAM_MAX_ENUM == 0x7FFFFFFF)                           \
     X(AACBVH_INVALID_ID == 0xFFFFFFFFu)
 

@@ -69,6 +69,7 @@ struct Options {
     uint32_t max_leaf_size = 4;
     int layout = AACBVH_LAYOUT_BINARY; ///< --layout: what aacbvh_bvh_intersect / occluded traverse
     int triangles = AACBVH_TRIANGLES_REFERENCED; ///< --triangles: where the queries read triangles from
+    int keep_build_memory = 0; ///< --keep-build-memory: rebuilds reuse the previous build's memory
     std::string csv, json, svg, markdown;
     std::string preview_dir;  ///< --preview DIR: a PGM image of the primary hits per scene
 };
@@ -99,6 +100,8 @@ void usage(FILE *out) {
         "  --no-embree       leave Embree out\n"
         "  --layout L        traversal layout for the Mrays/s columns: binary (default) or wide4\n"
         "  --triangles S     triangle storage for the Mrays/s columns: referenced (default) or copied\n"
+        "  --keep-build-memory  set AACBVH_PARAM_KEEP_BUILD_MEMORY: each timed build after\n"
+        "                    the first reuses the memory the previous one freed (per-frame rebuilds)\n"
         "  --csv FILE, --json FILE, --svg FILE, --markdown FILE   write the results\n"
         "  --preview DIR     write DIR/<scene>.pgm, the primary hits shaded by the cosine\n"
         "                    to the light (to check the cameras)\n"
@@ -219,6 +222,8 @@ bool parse_args(int argc, char **argv, Options &opt) {
                 opt.layout = AACBVH_LAYOUT_WIDE4;
             else
                 return false;
+        } else if (a == "--keep-build-memory") {
+            opt.keep_build_memory = 1;
         } else if (a == "--triangles") {
             const char *s = next("--triangles");
             if (!s) return false;
@@ -323,8 +328,8 @@ struct BvhDeleter {
 };
 using BvhPtr = std::unique_ptr<aacbvh_bvh, BvhDeleter>;
 
-BvhPtr make_bvh(aacbvh_context *ctx, const Scene &scene, int builder, uint32_t max_leaf, int layout, int triangles,
-                std::string &err) {
+/// A BVH over the scene with the given builder and the options' handle parameters.
+BvhPtr make_bvh(aacbvh_context *ctx, const Scene &scene, int builder, const Options &opt, std::string &err) {
     aacbvh_bvh *raw = nullptr;
     if (!ctx || aacbvh_bvh_create(ctx, &raw) != AACBVH_OK) {
         err = "cannot create a BVH";
@@ -332,9 +337,10 @@ BvhPtr make_bvh(aacbvh_context *ctx, const Scene &scene, int builder, uint32_t m
     }
     BvhPtr bvh(raw);
     if (aacbvh_bvh_set_param_int(raw, AACBVH_PARAM_BUILDER, builder) != AACBVH_OK ||
-        aacbvh_bvh_set_param_int(raw, AACBVH_PARAM_MAX_LEAF_SIZE, max_leaf) != AACBVH_OK ||
-        aacbvh_bvh_set_param_int(raw, AACBVH_PARAM_TRAVERSAL_LAYOUT, layout) != AACBVH_OK ||
-        aacbvh_bvh_set_param_int(raw, AACBVH_PARAM_TRIANGLE_STORAGE, triangles) != AACBVH_OK ||
+        aacbvh_bvh_set_param_int(raw, AACBVH_PARAM_MAX_LEAF_SIZE, opt.max_leaf_size) != AACBVH_OK ||
+        aacbvh_bvh_set_param_int(raw, AACBVH_PARAM_TRAVERSAL_LAYOUT, opt.layout) != AACBVH_OK ||
+        aacbvh_bvh_set_param_int(raw, AACBVH_PARAM_TRIANGLE_STORAGE, opt.triangles) != AACBVH_OK ||
+        aacbvh_bvh_set_param_int(raw, AACBVH_PARAM_KEEP_BUILD_MEMORY, opt.keep_build_memory) != AACBVH_OK ||
         aacbvh_bvh_set_triangles(raw, scene.vertices.data(), scene.vertex_count(), 3 * sizeof(float),
                                  scene.indices.data(), scene.triangle_count()) != AACBVH_OK) {
         err = aacbvh_bvh_last_error(raw);
@@ -470,7 +476,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
     rays.rays[kPrimary] = make_primary_rays(res.camera, opt.width, opt.height);
     {
         std::string err;
-        BvhPtr ref = make_bvh(ctx1, scene, AACBVH_BUILDER_AAC_HQ, opt.max_leaf_size, opt.layout, opt.triangles, err);
+        BvhPtr ref = make_bvh(ctx1, scene, AACBVH_BUILDER_AAC_HQ, opt, err);
         std::vector<aacbvh_hit> hits(rays.rays[kPrimary].size());
         if (!ref || aacbvh_bvh_build(ref.get()) != AACBVH_OK ||
             aacbvh_bvh_intersect(ref.get(), rays.rays[kPrimary].data(), hits.data(), hits.size()) != AACBVH_OK) {
@@ -504,7 +510,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
             BvhPtr quality_bvh;  // the 1-thread tree whose quality and ray speed are measured
             for (uint32_t t : opt.threads) {
                 std::string err;
-                BvhPtr bvh = make_bvh(contexts.get(t), scene, b->builder, opt.max_leaf_size, opt.layout, opt.triangles, err);
+                BvhPtr bvh = make_bvh(contexts.get(t), scene, b->builder, opt, err);
                 if (!bvh) {
                     row.status = "error";
                     row.note = err;
@@ -529,7 +535,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
             }
             if (row.status == "ok" && !quality_bvh) {
                 std::string err;
-                quality_bvh = make_bvh(ctx1, scene, b->builder, opt.max_leaf_size, opt.layout, opt.triangles, err);
+                quality_bvh = make_bvh(ctx1, scene, b->builder, opt, err);
                 if (!quality_bvh || aacbvh_bvh_build(quality_bvh.get()) != AACBVH_OK) {
                     row.status = "error";
                     row.note = quality_bvh ? aacbvh_bvh_last_error(quality_bvh.get()) : err;
@@ -635,7 +641,8 @@ int main(int argc, char **argv) {
     }
     info.library_version = std::string(aacbvh_version_string()) +
                            (opt.layout == AACBVH_LAYOUT_WIDE4 ? " (traversal layout wide4" : " (traversal layout binary") +
-                           (opt.triangles == AACBVH_TRIANGLES_COPIED ? ", triangles copied)" : ", triangles referenced)");
+                           (opt.triangles == AACBVH_TRIANGLES_COPIED ? ", triangles copied" : ", triangles referenced") +
+                           (opt.keep_build_memory ? ", build memory kept between builds)" : ")");
     info.embree_version = embree_compiled() ? embree_version() : "not compiled in";
     if (!opt.embree && embree_compiled()) info.embree_version += " (left out: --no-embree)";
     info.cpu = cpu_name();

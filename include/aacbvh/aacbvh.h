@@ -190,6 +190,14 @@ typedef enum aacbvh_param {
     /** int, an aacbvh_triangle_storage: where ray queries read triangles
      *  from. Default AACBVH_TRIANGLES_REFERENCED. */
     AACBVH_PARAM_TRIANGLE_STORAGE = 10,
+    /** int 0 or 1: 1 keeps the large blocks a build frees (its scratch
+     *  memory, the tree it replaces) with the handle and reuses them on the
+     *  next build, for applications that rebuild every frame: no fresh pages
+     *  to fault in, so rebuilds are faster, at the cost of holding up to
+     *  aacbvh_stats.build_peak_bytes between builds. Blocks the next build
+     *  does not reuse are freed at its end; setting 0 frees them at once, as
+     *  does destroying the handle. Trees are identical either way. Default 0. */
+    AACBVH_PARAM_KEEP_BUILD_MEMORY = 11,
     AACBVH_PARAM_MAX_ENUM = 0x7FFFFFFF
 } aacbvh_param;
 

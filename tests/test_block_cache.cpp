@@ -1,0 +1,210 @@
+// Unit tests of the kept build memory (lib/block_cache.h) and of its use by a
+// BVH handle (lib/bvh_object.h, AACBVH_PARAM_KEEP_BUILD_MEMORY): which block a
+// request gets, what a build keeps and frees, and that the setting's memory
+// goes away when it is switched off.
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+// This cmocka.h has no extern "C" guard of its own.
+extern "C" {
+#include <cmocka.h>
+}
+
+#include <cstdlib>
+#include <cstring>
+#include <new>
+#include <random>
+#include <vector>
+
+#include "block_cache.h"
+#include "bvh_object.h"
+#include "error.h"
+#include "memory.h"
+#include "scheduler.h"
+
+using aacbvh::BlockCache;
+
+namespace {
+
+constexpr size_t kMiB = size_t(1) << 20;
+
+void *block(size_t bytes) {
+    void *p = std::aligned_alloc(aacbvh::kHugePageBytes, bytes);
+    assert_non_null(p);
+    return p;
+}
+
+void test_take_best_fit(void **) {
+    BlockCache cache;
+    void *b4 = block(4 * kMiB), *b6 = block(6 * kMiB), *b8 = block(8 * kMiB);
+    cache.keep(b8, 8 * kMiB);
+    cache.keep(b4, 4 * kMiB);
+    cache.keep(b6, 6 * kMiB);
+    assert_int_equal(cache.bytes(), 18 * kMiB);
+    assert_null(cache.take(10 * kMiB)); // none big enough
+    assert_null(cache.take(2 * kMiB));  // 4 MiB wastes more than an eighth
+    assert_ptr_equal(cache.take(6 * kMiB), b6);
+    assert_null(cache.take(6 * kMiB)); // 8 MiB is a third too big
+    assert_ptr_equal(cache.take(4 * kMiB - 4096), b4);
+    assert_ptr_equal(cache.take(8 * kMiB - kMiB / 2), b8);
+    assert_int_equal(cache.bytes(), 0);
+    std::free(b4);
+    std::free(b6);
+    std::free(b8);
+}
+
+void test_build_generations(void **) {
+    BlockCache cache;
+    cache.keep(block(2 * kMiB), 2 * kMiB);
+    cache.keep(block(4 * kMiB), 4 * kMiB);
+    cache.begin_build();
+    void *taken = cache.take(4 * kMiB);  // reused by this build
+    assert_non_null(taken);
+    cache.keep(block(6 * kMiB), 6 * kMiB); // freed by this build
+    cache.end_build();                      // frees the unused 2 MiB block
+    assert_int_equal(cache.bytes(), 6 * kMiB);
+    cache.keep(taken, 4 * kMiB);
+    assert_int_equal(cache.bytes(), 10 * kMiB);
+    cache.release();
+    assert_int_equal(cache.bytes(), 0);
+    assert_null(cache.take(2 * kMiB));
+}
+
+void test_full_cache_frees(void **) {
+    BlockCache cache;
+    for (int i = 0; i < 100; ++i) cache.keep(block(2 * kMiB), 2 * kMiB); // past the limit: freed, not leaked
+    assert_true(cache.bytes() <= 100 * 2 * kMiB);
+    assert_true(cache.bytes() >= 32 * 2 * kMiB);
+}
+
+void test_allocator_uses_installed_cache(void **) {
+    BlockCache cache;
+    void *first = nullptr;
+    {
+        const BlockCache::Scope installed(&cache);
+        aacbvh::Array<float> big(3 * kMiB / sizeof(float));
+        first = big.data();
+        aacbvh::Array<float> small(100); // below 2 MiB: never kept
+    }
+    assert_int_equal(cache.bytes(), 4 * kMiB); // rounded to 2 MiB pages
+    assert_null(BlockCache::current());
+    {
+        const BlockCache::Scope installed(&cache);
+        aacbvh::Array<float> again(3 * kMiB / sizeof(float) + 1000);
+        assert_ptr_equal(again.data(), first);
+        assert_int_equal(cache.bytes(), 0);
+        {
+            const BlockCache::Scope none(nullptr); // nested scopes restore
+            aacbvh::Array<float> plain(3 * kMiB / sizeof(float));
+        }
+        assert_ptr_equal(BlockCache::current(), &cache);
+    }
+    assert_int_equal(cache.bytes(), 4 * kMiB);
+}
+
+void test_handle_keeps_and_frees(void **) {
+    aacbvh::Scheduler scheduler(2);
+    aacbvh::BvhObject object(scheduler);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    const size_t triangles = 50000;
+    std::vector<float> vertices(9 * triangles);
+    for (float &v : vertices) v = u(rng);
+    object.set_triangles(vertices.data(), 3 * triangles, 3 * sizeof(float), nullptr, triangles);
+
+    object.build();
+    assert_int_equal(object.kept_build_bytes(), 0); // off by default
+    object.set_param_int(AACBVH_PARAM_KEEP_BUILD_MEMORY, 1);
+    object.build();
+    const size_t kept = object.kept_build_bytes();
+    assert_true(kept > 0);
+    // Kept: what the build freed, at most its peak plus the tree it replaced.
+    aacbvh_stats stats{};
+    stats.struct_size = sizeof stats;
+    object.stats(stats);
+    assert_true(kept <= stats.build_peak_bytes + stats.memory_bytes + 8 * aacbvh::kHugePageBytes);
+    object.build();
+    assert_true(object.kept_build_bytes() <= kept + 8 * aacbvh::kHugePageBytes);
+    object.set_param_int(AACBVH_PARAM_MAX_LEAF_SIZE, 2); // other settings leave it alone
+    assert_true(object.kept_build_bytes() > 0);
+    object.set_param_int(AACBVH_PARAM_KEEP_BUILD_MEMORY, 0);
+    assert_int_equal(object.kept_build_bytes(), 0);
+    object.build();
+    assert_int_equal(object.kept_build_bytes(), 0);
+}
+
+bool same_tree(const aacbvh::Bvh &a, const aacbvh::Bvh &b) {
+    return a.nodes.size() == b.nodes.size() && a.prim_ids.size() == b.prim_ids.size() &&
+           std::memcmp(a.nodes.data(), b.nodes.data(), a.nodes.size() * sizeof a.nodes[0]) == 0 &&
+           std::memcmp(a.prim_ids.data(), b.prim_ids.data(), a.prim_ids.size() * sizeof a.prim_ids[0]) == 0;
+}
+
+/// Out of memory at each build allocation in turn, with blocks kept: the
+/// failed build leaves the tree as it was, the kept memory stays bounded, and
+/// the next build (from kept blocks) makes the tree a fresh build makes.
+void test_failures_with_kept_memory(void **) {
+    aacbvh::Scheduler scheduler(1);
+    aacbvh::BvhObject object(scheduler), fresh(scheduler);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    const size_t triangles = 40000;
+    std::vector<float> vertices(9 * triangles), moved(9 * triangles);
+    for (float &v : vertices) v = u(rng);
+    for (size_t i = 0; i < moved.size(); ++i) moved[i] = vertices[i] + 0.05f * u(rng);
+    fresh.set_triangles(moved.data(), 3 * triangles, 3 * sizeof(float), nullptr, triangles);
+    fresh.build();
+    object.set_param_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_FAST);
+    fresh.set_param_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_FAST);
+    fresh.build();
+    object.set_param_int(AACBVH_PARAM_KEEP_BUILD_MEMORY, 1);
+
+    int64_t k = 1;
+    for (;; ++k) {
+        object.set_triangles(vertices.data(), 3 * triangles, 3 * sizeof(float), nullptr, triangles);
+        object.build();
+        object.build();
+        const aacbvh::Bvh before = aacbvh::Bvh{aacbvh::Array<aacbvh::Node>(object.tree().nodes),
+                                               aacbvh::Array<uint32_t>(object.tree().prim_ids)};
+        const size_t kept = object.kept_build_bytes();
+        object.set_triangles(moved.data(), 3 * triangles, 3 * sizeof(float), nullptr, triangles);
+        aacbvh::testing::alloc_fail_countdown.store(k);
+        bool failed = false;
+        try {
+            object.build();
+        } catch (const std::bad_alloc &) {
+            failed = true;
+        } catch (const aacbvh::Error &e) {
+            failed = e.status() == AACBVH_ERROR_OUT_OF_MEMORY;
+            if (!failed) fail_msg("allocation %lld failing: %s", (long long)k, e.what());
+        }
+        const bool reached = aacbvh::testing::alloc_fail_countdown.exchange(0) == 0;
+        if (failed) {
+            if (!same_tree(object.tree(), before)) fail_msg("allocation %lld failing changed the tree", (long long)k);
+            if (object.kept_build_bytes() > kept + object.tree().memory_bytes() + 8 * aacbvh::kHugePageBytes)
+                fail_msg("allocation %lld failing: %zu bytes kept, %zu before", (long long)k,
+                         object.kept_build_bytes(), kept);
+            object.build(); // from the kept blocks
+        } else {
+            assert_false(reached); // a build that reached its failure must fail
+        }
+        if (!same_tree(object.tree(), fresh.tree()))
+            fail_msg("after allocation %lld failing, the rebuild differs from a fresh build", (long long)k);
+        if (!failed) break;
+    }
+    assert_true(k > 5); // the build's arrays were reached one by one
+}
+
+} // namespace
+
+int main() {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_take_best_fit),
+        cmocka_unit_test(test_build_generations),
+        cmocka_unit_test(test_full_cache_frees),
+        cmocka_unit_test(test_allocator_uses_installed_cache),
+        cmocka_unit_test(test_handle_keeps_and_frees),
+        cmocka_unit_test(test_failures_with_kept_memory),
+    };
+    return cmocka_run_group_tests(tests, nullptr, nullptr);
+}
