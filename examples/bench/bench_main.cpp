@@ -101,7 +101,8 @@ void usage(FILE *out) {
         "  --layout L        traversal layout for the Mrays/s columns: binary (default) or wide4\n"
         "  --triangles S     triangle storage for the Mrays/s columns: referenced (default) or copied\n"
         "  --keep-build-memory  set AACBVH_PARAM_KEEP_BUILD_MEMORY: each timed build after\n"
-        "                    the first reuses the memory the previous one freed (per-frame rebuilds)\n"
+        "                    the first reuses the memory the previous one freed (per-frame\n"
+        "                    rebuilds); Embree LOW / MEDIUM then rebuild into one RTCBVH\n"
         "  --csv FILE, --json FILE, --svg FILE, --markdown FILE   write the results\n"
         "  --preview DIR     write DIR/<scene>.pgm, the primary hits shaded by the cosine\n"
         "                    to the light (to check the cameras)\n"
@@ -584,7 +585,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
                 std::vector<double> seconds;
                 std::string err;
                 if (!embree_build_bvh(scene.vertices, scene.indices, q, opt.threads[ti], opt.runs, opt.max_leaf_size,
-                                      seconds, ti == 0 ? &tree : nullptr, err)) {
+                                      opt.keep_build_memory != 0, seconds, ti == 0 ? &tree : nullptr, err)) {
                     row.status = "error";
                     row.note = err;
                 } else {

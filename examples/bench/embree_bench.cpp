@@ -17,7 +17,7 @@ bool embree_compiled() { return false; }
 std::string embree_version() { return "not compiled in"; }
 
 bool embree_build_bvh(const std::vector<float> &, const std::vector<uint32_t> &, EmbreeQuality, uint32_t, int,
-                      uint32_t, std::vector<double> &, FlatTree *, std::string &err) {
+                      uint32_t, bool, std::vector<double> &, FlatTree *, std::string &err) {
     err = "Embree not compiled in";
     return false;
 }
@@ -169,7 +169,7 @@ void convert(const NodeBase *root, const std::vector<RTCBuildPrimitive> &pristin
 }  // namespace
 
 bool embree_build_bvh(const std::vector<float> &vertices, const std::vector<uint32_t> &indices,
-                      EmbreeQuality quality, uint32_t threads, int runs, uint32_t max_leaf_size,
+                      EmbreeQuality quality, uint32_t threads, int runs, uint32_t max_leaf_size, bool reuse_bvh,
                       std::vector<double> &seconds, FlatTree *tree, std::string &err) {
     Device dev(threads);
     if (!dev.device) {
@@ -192,9 +192,10 @@ bool embree_build_bvh(const std::vector<float> &vertices, const std::vector<uint
         p.primID = uint32_t(i);
     }
     std::vector<RTCBuildPrimitive> prims(n);
+    RTCBVH kept = reuse_bvh ? rtcNewBVH(dev.device) : nullptr;  // holds its memory between builds
     for (int run = 0; run < runs; ++run) {
         prims = pristine;  // the builder reorders its input
-        RTCBVH bvh = rtcNewBVH(dev.device);
+        RTCBVH bvh = kept ? kept : rtcNewBVH(dev.device);
         RTCBuildArguments args = rtcDefaultBuildArguments();
         args.byteSize = sizeof(args);
         args.buildQuality = quality == EmbreeQuality::kLow ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_MEDIUM;
@@ -230,8 +231,9 @@ bool embree_build_bvh(const std::vector<float> &vertices, const std::vector<uint
         }
         seconds.push_back(s);
         if (tree && run == runs - 1) convert(static_cast<const NodeBase *>(root), pristine, *tree);
-        rtcReleaseBVH(bvh);
+        if (!kept) rtcReleaseBVH(bvh);
     }
+    if (kept) rtcReleaseBVH(kept);
     return true;
 }
 

@@ -30,9 +30,11 @@ enum class EmbreeQuality { kLow, kMedium };
 /// Builds a binary BVH with rtcBuildBVH `runs` times on a device of `threads`
 /// threads ("threads=N"), timing rtcBuildBVH alone (seconds per run appended to
 /// `seconds`). The last run's tree is converted into *tree when tree is not NULL.
+/// With reuse_bvh, every run rebuilds into one RTCBVH, which keeps its memory
+/// between builds (our --keep-build-memory counterpart).
 /// Returns false with a message on failure.
 bool embree_build_bvh(const std::vector<float> &vertices, const std::vector<uint32_t> &indices,
-                      EmbreeQuality quality, uint32_t threads, int runs, uint32_t max_leaf_size,
+                      EmbreeQuality quality, uint32_t threads, int runs, uint32_t max_leaf_size, bool reuse_bvh,
                       std::vector<double> &seconds, FlatTree *tree, std::string &err);
 
 /// Embree's own acceleration structure: builds the scene `runs` times on a device
