@@ -6,6 +6,11 @@
 
 #include "distance_row.h"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#define AACBVH_SSE2 1
+#endif
+
 namespace aacbvh {
 
 namespace {
@@ -49,6 +54,58 @@ private:
     BoxColumns cols_;
 };
 
+/// The nearest-neighbour bookkeeping after a merge, for every live slot j
+/// but a: clusters a and b (a < b) merged into slot a, the last live cluster
+/// moved from slot `last` (== live) into slot b, and da[j] = d(a, j). A slot
+/// whose nearest neighbour was a or b must search again: its index goes to
+/// `rescan` (the count is returned). The others follow a partner that moved
+/// from `last` to b, and take a when it is closer (or as close with a lower
+/// slot). SSE2 on x86-64, four slots at a time.
+uint32_t update_nearest(const float *da, float *nd, uint32_t *nn, uint32_t live, uint32_t a, uint32_t b, uint32_t last,
+                        uint32_t *rescan) {
+    uint32_t rescans = 0;
+    uint32_t j = 0;
+#ifdef AACBVH_SSE2
+    const __m128i va = _mm_set1_epi32(int(a)), vb = _mm_set1_epi32(int(b)), vlast = _mm_set1_epi32(int(last));
+    __m128i index = _mm_setr_epi32(0, 1, 2, 3);
+    const __m128i four = _mm_set1_epi32(4);
+    for (; j + 4 <= live; j += 4, index = _mm_add_epi32(index, four)) {
+        __m128i p = _mm_loadu_si128(reinterpret_cast<const __m128i *>(nn + j));
+        const __m128i not_a = _mm_xor_si128(_mm_cmpeq_epi32(index, va), _mm_set1_epi32(-1));
+        const __m128i again = _mm_and_si128(_mm_or_si128(_mm_cmpeq_epi32(p, va), _mm_cmpeq_epi32(p, vb)), not_a);
+        const __m128i moved = _mm_cmpeq_epi32(p, vlast);
+        p = _mm_or_si128(_mm_andnot_si128(moved, p), _mm_and_si128(moved, vb));
+        const __m128 d = _mm_loadu_ps(da + j), n = _mm_loadu_ps(nd + j);
+        const __m128i closer = _mm_castps_si128(_mm_or_ps(
+            _mm_cmplt_ps(d, n), _mm_and_ps(_mm_cmpeq_ps(d, n), _mm_castsi128_ps(_mm_cmpgt_epi32(p, va)))));
+        const __m128i take = _mm_andnot_si128(again, _mm_and_si128(closer, not_a));
+        p = _mm_or_si128(_mm_andnot_si128(take, p), _mm_and_si128(take, va));
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(nn + j), p);
+        _mm_storeu_ps(nd + j, _mm_or_ps(_mm_andnot_ps(_mm_castsi128_ps(take), n),
+                                        _mm_and_ps(_mm_castsi128_ps(take), d)));
+        int bits = _mm_movemask_ps(_mm_castsi128_ps(again));
+        while (bits) {
+            rescan[rescans++] = j + uint32_t(__builtin_ctz(unsigned(bits)));
+            bits &= bits - 1;
+        }
+    }
+#endif
+    for (; j < live; ++j) {
+        if (j == a) continue;
+        uint32_t &p = nn[j];
+        if (p == a || p == b) {
+            rescan[rescans++] = j;
+            continue;
+        }
+        if (p == last) p = b;
+        if (da[j] < nd[j] || (da[j] == nd[j] && a < p)) {
+            nd[j] = da[j];
+            p = a;
+        }
+    }
+    return rescans;
+}
+
 /// The greedy loop. With kMatrix, d(i, j) of live clusters is cached and only
 /// the merged cluster's row is recomputed, as the paper suggests; without, a
 /// row is recomputed whenever a nearest neighbour must be found again.
@@ -61,6 +118,7 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
     Columns boxes(s.columns.data(), stride);
     float *nd = s.nearest_distance.data();
     uint32_t *nn = s.nearest.data();
+    uint32_t *rescan = s.rescan.data();
     float *matrix = s.distances.data();
     float q[6];
 
@@ -92,9 +150,8 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
     uint32_t used = 0;
     while (live > target) {
         if ((live & 1023) == 0) ctx.poll();
-        uint32_t a = 0;
-        for (uint32_t i = 1; i < live; ++i)
-            if (nd[i] < nd[a]) a = i;
+        float ignored;
+        uint32_t a = argmin_row(nd, live, ignored); // the closest pair, lowest slot on ties
         uint32_t b = nn[a];
         if (a > b) std::swap(a, b); // the merged cluster takes the lower slot
 
@@ -136,25 +193,10 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
 
         // Clusters whose nearest neighbour was merged look again; the others
         // only compare with the new cluster.
-        float best_a = INFINITY;
-        uint32_t arg_a = a == 0 ? 1 : 0;
-        for (uint32_t j = 0; j < live; ++j) {
-            if (j == a) continue;
-            const float daj = da[j];
-            if (daj < best_a) { best_a = daj; arg_a = j; }
-            uint32_t &p = nn[j];
-            if (p == a || p == b) {
-                p = kMatrix ? argmin_row(row(j, live), live, nd[j]) : ~0u; // ~0: redo below
-                continue;
-            }
-            if (p == last) p = b; // its partner moved slots
-            if (daj < nd[j] || (daj == nd[j] && a < p)) { nd[j] = daj; p = a; }
-        }
-        nd[a] = best_a;
-        nn[a] = arg_a;
-        if (!kMatrix)
-            for (uint32_t j = 0; j < live; ++j)
-                if (nn[j] == ~0u) nn[j] = argmin_row(row(j, live), live, nd[j]);
+        // (da is read before the rescans: without the matrix they reuse its row.)
+        const uint32_t rescans = update_nearest(da, nd, nn, live, a, b, last, rescan);
+        nn[a] = argmin_row(da, live, nd[a]); // da[a] is +inf
+        for (uint32_t k = 0; k < rescans; ++k) nn[rescan[k]] = argmin_row(row(rescan[k], live), live, nd[rescan[k]]);
     }
 
     // Unused ids move to the front of free_ids for the caller.
@@ -268,6 +310,7 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
     if (scratch.nearest.size() < count) {
         scratch.nearest_distance.resize(count);
         scratch.nearest.resize(count);
+        scratch.rescan.resize(count);
     }
     const bool use_matrix = count <= kMatrixLimit;
     const size_t matrix_floats = use_matrix ? size_t(count) * stride : stride;

@@ -19,6 +19,7 @@ struct CombineScratch {
     std::vector<float> distances;        ///< pairwise matrix, row-major, stride = padded count
     std::vector<float> nearest_distance;
     std::vector<uint32_t> nearest;
+    std::vector<uint32_t> rescan;        ///< slots whose nearest neighbour must be found again
 };
 
 /// Merges clusters ids[0, count) of `tree` (leaf or inner node ids whose boxes

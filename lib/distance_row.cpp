@@ -24,6 +24,14 @@ namespace {
     }
 }
 
+[[maybe_unused]] uint32_t argmin_row_scalar(const float *row, uint32_t count, float &best) {
+    uint32_t arg = 0;
+    best = row[0];
+    for (uint32_t j = 1; j < count; ++j)
+        if (row[j] < best) { best = row[j]; arg = j; }
+    return arg;
+}
+
 #ifdef AACBVH_X86
 void distance_row_sse(const BoxColumns &b, uint32_t count, const float q[6], float scale, float *out) {
     const __m128 qlx = _mm_set1_ps(q[0]), qly = _mm_set1_ps(q[1]), qlz = _mm_set1_ps(q[2]);
@@ -68,29 +76,45 @@ RowFn pick_row_function() {
 
 const RowFn kRowFunction = pick_row_function();
 
-/// Minimum of row[0, count) with SSE, then the first index holding it.
+/// Minimum of row[0, count) and the first index holding it, in one pass:
+/// each of four lanes keeps its smallest value and where it first saw it
+/// (strict compares keep the earliest), then the lanes are reduced.
 uint32_t argmin_row_sse(const float *row, uint32_t count, float &best) {
     __m128 m = _mm_set1_ps(INFINITY);
+    __m128i at = _mm_set1_epi32(0);
+    __m128i index = _mm_setr_epi32(0, 1, 2, 3);
+    const __m128i four = _mm_set1_epi32(4);
     uint32_t j = 0;
-    for (; j + 4 <= count; j += 4) m = _mm_min_ps(m, _mm_loadu_ps(row + j));
-    m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
-    m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
-    float v = _mm_cvtss_f32(m);
-    for (; j < count; ++j) v = std::min(v, row[j]);
+    for (; j + 4 <= count; j += 4, index = _mm_add_epi32(index, four)) {
+        const __m128 x = _mm_loadu_ps(row + j);
+        const __m128i less = _mm_castps_si128(_mm_cmplt_ps(x, m));
+        m = _mm_min_ps(m, x);
+        at = _mm_or_si128(_mm_andnot_si128(less, at), _mm_and_si128(less, index));
+    }
+    float v = INFINITY;
+    uint32_t arg = 0;
+    if (j > 0) {
+        // The smallest lane value, then the earliest index among the lanes holding it.
+        __m128 h = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
+        h = _mm_min_ps(h, _mm_shuffle_ps(h, h, _MM_SHUFFLE(1, 0, 3, 2)));
+        v = _mm_cvtss_f32(h);
+        alignas(16) uint32_t where[4];
+        _mm_store_si128(reinterpret_cast<__m128i *>(where), at);
+        int lanes = _mm_movemask_ps(_mm_cmpeq_ps(m, h));
+        arg = lanes ? where[__builtin_ctz(unsigned(lanes))] : 0;
+        for (lanes &= lanes - 1; lanes; lanes &= lanes - 1) arg = std::min(arg, where[__builtin_ctz(unsigned(lanes))]);
+    }
+    for (; j < count; ++j)
+        if (row[j] < v || (j == 0)) {
+            v = row[j];
+            arg = j;
+        }
+    if (!(v == v)) return argmin_row_scalar(row, count, best); // NaN entries: valid boxes never give them
     best = v;
-    for (uint32_t i = 0; i < count; ++i)
-        if (row[i] == v) return i;
-    return 0; // only when every entry is NaN, which valid boxes never give
+    return arg;
 }
 #endif
 
-[[maybe_unused]] uint32_t argmin_row_scalar(const float *row, uint32_t count, float &best) {
-    uint32_t arg = 0;
-    best = row[0];
-    for (uint32_t j = 1; j < count; ++j)
-        if (row[j] < best) { best = row[j]; arg = j; }
-    return arg;
-}
 
 } // namespace
 
