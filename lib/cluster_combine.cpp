@@ -210,11 +210,16 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
 constexpr uint32_t kSmallLimit = 16;
 
 /// argmin_row() for rows of a few entries, inlined.
+/// Branch-free: which entry is smallest is data, not a pattern to predict.
 inline uint32_t argmin_small(const float *row, uint32_t count, float &best) {
     uint32_t arg = 0;
-    best = row[0];
-    for (uint32_t j = 1; j < count; ++j)
-        if (row[j] < best) { best = row[j]; arg = j; }
+    float b = row[0];
+    for (uint32_t j = 1; j < count; ++j) {
+        const bool less = row[j] < b;
+        b = less ? row[j] : b;
+        arg = less ? j : arg;
+    }
+    best = b;
     return arg;
 }
 
@@ -243,9 +248,8 @@ uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint
 
     uint32_t live = count, used = 0;
     while (live > target) {
-        uint32_t a = 0;
-        for (uint32_t i = 1; i < live; ++i)
-            if (nd[i] < nd[a]) a = i;
+        float ignored;
+        uint32_t a = argmin_small(nd, live, ignored);
         uint32_t b = nn[a];
         if (a > b) std::swap(a, b);
 
@@ -270,10 +274,7 @@ uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint
         live = last;
         box[a] = merged;
         ids[a] = node;
-        float best_a = INFINITY;
-        uint32_t arg_a = a == 0 ? 1 : 0;
         for (uint32_t j = 0; j < live; ++j) {
-            if (j == a) continue;
             const float daj = dist(merged, box[j]);
             d[a][j] = d[j][a] = daj;
         }
@@ -281,17 +282,17 @@ uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint
         for (uint32_t j = 0; j < live; ++j) {
             if (j == a) continue;
             const float daj = d[a][j];
-            if (daj < best_a) { best_a = daj; arg_a = j; }
             uint32_t &p = nn[j];
             if (p == a || p == b) {
                 p = argmin_small(d[j], live, nd[j]);
                 continue;
             }
-            if (p == last) p = b;
-            if (daj < nd[j] || (daj == nd[j] && a < p)) { nd[j] = daj; p = a; }
+            p = p == last ? b : p;
+            const bool closer = daj < nd[j] || (daj == nd[j] && a < p);
+            nd[j] = closer ? daj : nd[j];
+            p = closer ? a : p;
         }
-        nd[a] = best_a;
-        nn[a] = arg_a;
+        nn[a] = argmin_small(d[a], live, nd[a]);
     }
     for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
     return live;
