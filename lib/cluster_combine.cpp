@@ -137,14 +137,11 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
     };
 
     // The diagonal is +inf so that nearest-neighbour scans need no self test.
-    if (kMatrix) {
-        for (uint32_t i = 0; i < count; ++i) {
-            boxes.query(i, q);
-            distance_row(boxes.columns(), count, q, scale, matrix + size_t(i) * stride);
-            matrix[size_t(i) * stride + i] = INFINITY;
-        }
+    for (uint32_t i = 0; i < count; ++i) {
+        boxes.query(i, q);
+        nn[i] = distance_row_argmin(boxes.columns(), count, q, scale, kMatrix ? matrix + size_t(i) * stride : matrix,
+                                    i, nd[i]);
     }
-    for (uint32_t i = 0; i < count; ++i) nn[i] = argmin_row(row(i, count), count, nd[i]);
 
     uint32_t live = count;
     uint32_t used = 0;
@@ -179,23 +176,17 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
         boxes.set(live, merged); // keep the padding lanes valid
         ids[a] = node;
 
-        const float *da;
-        if (kMatrix) {
-            float *ra = matrix + size_t(a) * stride;
-            boxes.query(a, q);
-            distance_row(boxes.columns(), live, q, scale, ra);
-            ra[a] = INFINITY;
-            for (uint32_t j = 0; j < live; ++j) matrix[size_t(j) * stride + a] = ra[j];
-            da = ra;
-        } else {
-            da = row(a, live);
-        }
+        // The merged cluster's row, and its nearest neighbour.
+        float *da = kMatrix ? matrix + size_t(a) * stride : matrix;
+        boxes.query(a, q);
+        nn[a] = distance_row_argmin(boxes.columns(), live, q, scale, da, a, nd[a]);
+        if (kMatrix)
+            for (uint32_t j = 0; j < live; ++j) matrix[size_t(j) * stride + a] = da[j];
 
         // Clusters whose nearest neighbour was merged look again; the others
-        // only compare with the new cluster.
-        // (da is read before the rescans: without the matrix they reuse its row.)
+        // only compare with the new cluster. (Without the matrix the rescans
+        // reuse da's row, so da is read first.)
         const uint32_t rescans = update_nearest(da, nd, nn, live, a, b, last, rescan);
-        nn[a] = argmin_row(da, live, nd[a]); // da[a] is +inf
         for (uint32_t k = 0; k < rescans; ++k) nn[rescan[k]] = argmin_row(row(rescan[k], live), live, nd[rescan[k]]);
     }
 

@@ -67,6 +67,50 @@ __attribute__((target("avx"))) void distance_row_avx(const BoxColumns &b, uint32
     }
 }
 
+/// The AVX row with the nearest-neighbour search folded in: lanes past
+/// `count` and the `self` lane are not candidates; each lane keeps its
+/// smallest value and the first index holding it, then the lanes reduce.
+__attribute__((target("avx"))) uint32_t distance_row_argmin_avx(const BoxColumns &b, uint32_t count, const float q[6],
+                                                                float scale, float *out, uint32_t self, float &best) {
+    const __m256 qlx = _mm256_set1_ps(q[0]), qly = _mm256_set1_ps(q[1]), qlz = _mm256_set1_ps(q[2]);
+    const __m256 qhx = _mm256_set1_ps(q[3]), qhy = _mm256_set1_ps(q[4]), qhz = _mm256_set1_ps(q[5]);
+    const __m256 s = _mm256_set1_ps(scale), inf = _mm256_set1_ps(INFINITY), fmax = _mm256_set1_ps(FLT_MAX);
+    const __m256 self_index = _mm256_set1_ps(float(self)), end = _mm256_set1_ps(float(count));
+    const __m256 eight = _mm256_set1_ps(8.0f);
+    __m256 index = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+    __m256 m = inf, at = _mm256_setzero_ps();
+    for (uint32_t j = 0; j < count; j += 8, index = _mm256_add_ps(index, eight)) {
+        const __m256 dx = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[0] + j), qhx),
+                                                      _mm256_min_ps(_mm256_loadu_ps(b.lo[0] + j), qlx)), s);
+        const __m256 dy = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[1] + j), qhy),
+                                                      _mm256_min_ps(_mm256_loadu_ps(b.lo[1] + j), qly)), s);
+        const __m256 dz = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[2] + j), qhz),
+                                                      _mm256_min_ps(_mm256_loadu_ps(b.lo[2] + j), qlz)), s);
+        __m256 area =
+            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dy), _mm256_mul_ps(dy, dz)), _mm256_mul_ps(dz, dx));
+        area = _mm256_min_ps(area, fmax);
+        // Selects with and/andnot/or: GCC scalarises blendv on compare masks here.
+        const __m256 is_self = _mm256_cmp_ps(index, self_index, _CMP_EQ_OQ);
+        area = _mm256_or_ps(_mm256_and_ps(is_self, inf), _mm256_andnot_ps(is_self, area));
+        _mm256_storeu_ps(out + j, area);
+        const __m256 inside = _mm256_cmp_ps(index, end, _CMP_LT_OQ);
+        const __m256 candidate = _mm256_or_ps(_mm256_and_ps(inside, area), _mm256_andnot_ps(inside, inf));
+        const __m256 less = _mm256_cmp_ps(candidate, m, _CMP_LT_OQ);
+        m = _mm256_min_ps(candidate, m); // = candidate where less, else m
+        at = _mm256_or_ps(_mm256_and_ps(less, index), _mm256_andnot_ps(less, at));
+    }
+    __m256 h = _mm256_min_ps(m, _mm256_permute2f128_ps(m, m, 1));
+    h = _mm256_min_ps(h, _mm256_shuffle_ps(h, h, _MM_SHUFFLE(1, 0, 3, 2)));
+    h = _mm256_min_ps(h, _mm256_shuffle_ps(h, h, _MM_SHUFFLE(2, 3, 0, 1)));
+    alignas(32) float where[8];
+    _mm256_store_ps(where, at);
+    int lanes = _mm256_movemask_ps(_mm256_cmp_ps(m, h, _CMP_EQ_OQ));
+    float arg = lanes ? where[__builtin_ctz(unsigned(lanes))] : 0.0f;
+    for (lanes &= lanes - 1; lanes; lanes &= lanes - 1) arg = std::min(arg, where[__builtin_ctz(unsigned(lanes))]);
+    best = _mm256_cvtss_f32(h);
+    return uint32_t(arg);
+}
+
 using RowFn = void (*)(const BoxColumns &, uint32_t, const float *, float, float *);
 
 RowFn pick_row_function() {
@@ -75,6 +119,7 @@ RowFn pick_row_function() {
 }
 
 const RowFn kRowFunction = pick_row_function();
+const bool kHaveAvx = __builtin_cpu_supports("avx");
 
 /// Minimum of row[0, count) and the first index holding it, in one pass:
 /// each of four lanes keeps its smallest value and where it first saw it
@@ -124,6 +169,16 @@ uint32_t argmin_row(const float *row, uint32_t count, float &best) {
 #else
     return argmin_row_scalar(row, count, best);
 #endif
+}
+
+uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out,
+                             uint32_t self, float &best) {
+#ifdef AACBVH_X86
+    if (kHaveAvx) return distance_row_argmin_avx(boxes, count, query, scale, out, self, best);
+#endif
+    distance_row(boxes, count, query, scale, out);
+    out[self] = INFINITY;
+    return argmin_row(out, count, best);
 }
 
 void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out) {

@@ -22,6 +22,12 @@ struct BoxColumns {
 /// multiple of 8 past count (callers pad them).
 void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out);
 
+/// distance_row() with out[self] = +inf, returning argmin_row() of the result
+/// (the nearest other box, the lowest index on ties) in one pass. count must
+/// be below 2^24 (indices are tracked in float lanes).
+uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out,
+                             uint32_t self, float &best);
+
 /// Index of the smallest of row[0, count) (the lowest such index on ties),
 /// with its value in `best`; count >= 1. Reads only row[0, count).
 uint32_t argmin_row(const float *row, uint32_t count, float &best);

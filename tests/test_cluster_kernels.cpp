@@ -1,7 +1,8 @@
 // Unit tests of the SIMD kernels under AAC's greedy combine
 // (lib/distance_row.h) against plain loops: argmin_row on rows full of ties,
-// infinities and FLT_MAX at every length from 1 to 70, and distance_row
-// against a double-precision union area.
+// infinities and FLT_MAX at every length from 1 to 70, distance_row against
+// a double-precision union area, and the fused distance_row_argmin against
+// the two kernels it replaces.
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -100,12 +101,57 @@ void test_distance_row(void **) {
     for (float d : out) assert_true(d == FLT_MAX);
 }
 
+/// The fused row-and-nearest kernel against the two separate ones, on boxes
+/// drawn from a few shapes (so distances tie), with `self` anywhere.
+void test_distance_row_argmin(void **) {
+    std::mt19937 rng(29);
+    for (uint32_t count = 1; count <= 70; ++count) {
+        const uint32_t padded = (count + 7) & ~7u;
+        for (int trial = 0; trial < 40; ++trial) {
+            std::vector<float> cols(6 * padded);
+            aacbvh::BoxColumns boxes;
+            for (int k = 0; k < 3; ++k) {
+                boxes.lo[k] = cols.data() + k * padded;
+                boxes.hi[k] = cols.data() + (k + 3) * padded;
+            }
+            const int shapes = 1 + trial % 5;
+            for (uint32_t j = 0; j < padded; ++j) {
+                const int shape = int(rng() % unsigned(shapes));
+                for (int k = 0; k < 3; ++k) {
+                    boxes.lo[k][j] = float(shape * (k + 1));
+                    boxes.hi[k][j] = float(shape * (k + 1) + 1 + shape % 2);
+                }
+            }
+            const uint32_t self = rng() % count;
+            float q[6];
+            for (int k = 0; k < 3; ++k) {
+                q[k] = boxes.lo[k][self];
+                q[k + 3] = boxes.hi[k][self];
+            }
+            std::vector<float> fused(padded, -1.0f), plain(padded, -1.0f);
+            float fused_best = -1.0f, plain_best = -2.0f;
+            const uint32_t got = aacbvh::distance_row_argmin(boxes, count, q, 0.5f, fused.data(), self, fused_best);
+            aacbvh::distance_row(boxes, count, q, 0.5f, plain.data());
+            plain[self] = INFINITY;
+            const uint32_t want = aacbvh::argmin_row(plain.data(), count, plain_best);
+            assert_true(want == first_min(plain, count));
+            for (uint32_t j = 0; j < count; ++j)
+                if (!(fused[j] == plain[j])) fail_msg("count %u: entry %u is %g, expected %g", count, j, double(fused[j]),
+                                                      double(plain[j]));
+            if (got != want || !(fused_best == plain_best))
+                fail_msg("count %u, self %u: nearest %u (%g), expected %u (%g)", count, self, got, double(fused_best),
+                         want, double(plain_best));
+        }
+    }
+}
+
 } // namespace
 
 int main() {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_argmin_row),
         cmocka_unit_test(test_distance_row),
+        cmocka_unit_test(test_distance_row_argmin),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }
