@@ -95,6 +95,39 @@ class BindingTest(unittest.TestCase):
         self.assertTrue(caught.exception.message)  # the library's explanation
         self.assertEqual(self.bvh.get_param(aacbvh.PARAM_MAX_LEAF_SIZE), 4)
 
+    def test_constants_match_header(self):
+        # Every enum value the binding names equals the C header's, and every
+        # builder, parameter, layout and triangle storage the header has is named.
+        import re
+        header = os.path.join(HERE, "..", "..", "include", "aacbvh", "aacbvh.h")
+        with open(header) as f:
+            text = f.read()
+        values = {m.group(1): int(m.group(2), 0)
+                  for m in re.finditer(r"\bAACBVH_(\w+)\s*=\s*(0x[0-9A-Fa-f]+|-?\d+)", text)}
+        named = [n for n in values if re.match(r"(BUILDER|PARAM|LAYOUT|TRIANGLES)_", n) and "MAX_ENUM" not in n]
+        self.assertTrue(len(named) >= 20)
+        for name in named:
+            self.assertTrue(hasattr(aacbvh, name), "the binding lacks %s" % name)
+        for name, value in values.items():
+            if hasattr(aacbvh, name) and isinstance(getattr(aacbvh, name), int):
+                self.assertEqual(getattr(aacbvh, name), value, name)
+
+    def test_keep_build_memory(self):
+        vertices = random_triangles(60000, 9)
+        fresh = aacbvh.Bvh(self.ctx)
+        try:
+            fresh.set_triangles(vertices)
+            fresh.build()
+            self.bvh.set_param(aacbvh.PARAM_KEEP_BUILD_MEMORY, 1)
+            self.assertEqual(self.bvh.get_param(aacbvh.PARAM_KEEP_BUILD_MEMORY), 1)
+            self.bvh.set_triangles(vertices)
+            for _ in range(3):  # the second and third reuse the kept memory
+                self.bvh.build()
+                self.assertEqual(bytes(self.bvh.nodes()), bytes(fresh.nodes()))
+                self.assertEqual(bytes(self.bvh.primitive_indices()), bytes(fresh.primitive_indices()))
+        finally:
+            fresh.close()
+
     def test_misuse_raises(self):
         with self.assertRaises(aacbvh.AacbvhError) as caught:
             self.bvh.intersect([aacbvh.Ray()])
