@@ -49,22 +49,38 @@ void distance_row_sse(const BoxColumns &b, uint32_t count, const float q[6], flo
     }
 }
 
+/// The query box broadcast to eight lanes, and the scale.
+struct QueryAvx {
+    __m256 lo[3], hi[3], scale;
+};
+
+__attribute__((target("avx"), always_inline)) inline QueryAvx query_avx(const float q[6], float scale) {
+    QueryAvx r;
+    for (int k = 0; k < 3; ++k) {
+        r.lo[k] = _mm256_set1_ps(q[k]);
+        r.hi[k] = _mm256_set1_ps(q[k + 3]);
+    }
+    r.scale = _mm256_set1_ps(scale);
+    return r;
+}
+
+/// Distances from the query to boxes j .. j + 7, clamped to FLT_MAX.
+__attribute__((target("avx"), always_inline)) inline __m256 distances_avx(const BoxColumns &b, uint32_t j,
+                                                                            const QueryAvx &q) {
+    __m256 d[3];
+    for (int k = 0; k < 3; ++k)
+        d[k] = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[k] + j), q.hi[k]),
+                                           _mm256_min_ps(_mm256_loadu_ps(b.lo[k] + j), q.lo[k])),
+                             q.scale);
+    const __m256 area =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[1]), _mm256_mul_ps(d[1], d[2])), _mm256_mul_ps(d[2], d[0]));
+    return _mm256_min_ps(area, _mm256_set1_ps(FLT_MAX));
+}
+
 __attribute__((target("avx"))) void distance_row_avx(const BoxColumns &b, uint32_t count, const float q[6],
                                                       float scale, float *out) {
-    const __m256 qlx = _mm256_set1_ps(q[0]), qly = _mm256_set1_ps(q[1]), qlz = _mm256_set1_ps(q[2]);
-    const __m256 qhx = _mm256_set1_ps(q[3]), qhy = _mm256_set1_ps(q[4]), qhz = _mm256_set1_ps(q[5]);
-    const __m256 s = _mm256_set1_ps(scale);
-    for (uint32_t j = 0; j < count; j += 8) {
-        const __m256 dx = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[0] + j), qhx),
-                                                      _mm256_min_ps(_mm256_loadu_ps(b.lo[0] + j), qlx)), s);
-        const __m256 dy = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[1] + j), qhy),
-                                                      _mm256_min_ps(_mm256_loadu_ps(b.lo[1] + j), qly)), s);
-        const __m256 dz = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[2] + j), qhz),
-                                                      _mm256_min_ps(_mm256_loadu_ps(b.lo[2] + j), qlz)), s);
-        const __m256 area =
-            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dy), _mm256_mul_ps(dy, dz)), _mm256_mul_ps(dz, dx));
-        _mm256_storeu_ps(out + j, _mm256_min_ps(area, _mm256_set1_ps(FLT_MAX)));
-    }
+    const QueryAvx query = query_avx(q, scale);
+    for (uint32_t j = 0; j < count; j += 8) _mm256_storeu_ps(out + j, distances_avx(b, j, query));
 }
 
 /// The AVX row with the nearest-neighbour search folded in: lanes past
@@ -72,23 +88,14 @@ __attribute__((target("avx"))) void distance_row_avx(const BoxColumns &b, uint32
 /// smallest value and the first index holding it, then the lanes reduce.
 __attribute__((target("avx"))) uint32_t distance_row_argmin_avx(const BoxColumns &b, uint32_t count, const float q[6],
                                                                 float scale, float *out, uint32_t self, float &best) {
-    const __m256 qlx = _mm256_set1_ps(q[0]), qly = _mm256_set1_ps(q[1]), qlz = _mm256_set1_ps(q[2]);
-    const __m256 qhx = _mm256_set1_ps(q[3]), qhy = _mm256_set1_ps(q[4]), qhz = _mm256_set1_ps(q[5]);
-    const __m256 s = _mm256_set1_ps(scale), inf = _mm256_set1_ps(INFINITY), fmax = _mm256_set1_ps(FLT_MAX);
+    const QueryAvx query = query_avx(q, scale);
+    const __m256 inf = _mm256_set1_ps(INFINITY);
     const __m256 self_index = _mm256_set1_ps(float(self)), end = _mm256_set1_ps(float(count));
     const __m256 eight = _mm256_set1_ps(8.0f);
     __m256 index = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
     __m256 m = inf, at = _mm256_setzero_ps();
     for (uint32_t j = 0; j < count; j += 8, index = _mm256_add_ps(index, eight)) {
-        const __m256 dx = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[0] + j), qhx),
-                                                      _mm256_min_ps(_mm256_loadu_ps(b.lo[0] + j), qlx)), s);
-        const __m256 dy = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[1] + j), qhy),
-                                                      _mm256_min_ps(_mm256_loadu_ps(b.lo[1] + j), qly)), s);
-        const __m256 dz = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[2] + j), qhz),
-                                                      _mm256_min_ps(_mm256_loadu_ps(b.lo[2] + j), qlz)), s);
-        __m256 area =
-            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dy), _mm256_mul_ps(dy, dz)), _mm256_mul_ps(dz, dx));
-        area = _mm256_min_ps(area, fmax);
+        __m256 area = distances_avx(b, j, query);
         // Selects with and/andnot/or: GCC scalarises blendv on compare masks here.
         const __m256 is_self = _mm256_cmp_ps(index, self_index, _CMP_EQ_OQ);
         area = _mm256_or_ps(_mm256_and_ps(is_self, inf), _mm256_andnot_ps(is_self, area));
