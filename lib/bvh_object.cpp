@@ -88,7 +88,7 @@ void BvhObject::copy_triangles(const Bvh &bvh, float *out) const {
 
 void BvhObject::set_param_int(int32_t key, int64_t value) {
     params.set_int(key, value);
-    if (!params.keep_build_memory) kept_blocks_.release();
+    if (!params.keep_build_memory) kept_blocks_.reset();
 }
 
 void BvhObject::build() {
@@ -96,13 +96,18 @@ void BvhObject::build() {
     // With AACBVH_PARAM_KEEP_BUILD_MEMORY, big blocks come from and go back to
     // kept_blocks_ for the whole build, the old tree's included; whatever this
     // build did not reuse is freed when it ends, failed or not.
+    if (!params.keep_build_memory)
+        kept_blocks_.reset();
+    else if (!kept_blocks_)
+        kept_blocks_.reset(new BlockCache());
     struct EndBuild {
-        BlockCache &cache;
-        ~EndBuild() { cache.end_build(); }
-    } end_build{kept_blocks_};
-    if (!params.keep_build_memory) kept_blocks_.release();
-    kept_blocks_.begin_build();
-    const BlockCache::Scope cached(params.keep_build_memory ? &kept_blocks_ : nullptr);
+        BlockCache *cache;
+        ~EndBuild() {
+            if (cache) cache->end_build();
+        }
+    } end_build{kept_blocks_.get()};
+    if (kept_blocks_) kept_blocks_->begin_build();
+    const BlockCache::Scope cached(kept_blocks_.get());
 
     BuildContext ctx(scheduler_, progress_, progress_user_);
     ctx.report(0.0);
@@ -154,7 +159,7 @@ void BvhObject::build() {
             if (!decided) choose_subtrees(tree, rule, ctx, choices);
             sah_cost = emit_bvh(tree, rule, choices, ctx, result);
         }
-        if (params.layout == AACBVH_LAYOUT_WIDE4) wide.build(result);
+        if (params.layout == AACBVH_LAYOUT_WIDE4) wide.build(result, scheduler_);
         if (geometry_.kind == GeometryKind::Triangles && params.triangle_storage == AACBVH_TRIANGLES_COPIED) {
             triangles.resize(9 * result.prim_ids.size());
             copy_triangles(result, triangles.data());
@@ -204,7 +209,7 @@ void BvhObject::refit() {
     if (params.layout != AACBVH_LAYOUT_WIDE4)
         wide_.clear();
     else if (!wide_.built())
-        wide_.build(bvh_);
+        wide_.build(bvh_, scheduler_);
     // The triangle copy (AACBVH_TRIANGLES_COPIED) is allocated before the
     // refit, so that running out of memory leaves the tree as it was, and
     // filled in place after it.

@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <mutex>
 
 #include "aacbvh/aacbvh.h"
@@ -27,7 +28,7 @@ public:
     void set_param_int(int32_t key, int64_t value);
     void set_param_float(int32_t key, double value) { params.set_float(key, value); }
     /// Bytes kept for the next build (AACBVH_PARAM_KEEP_BUILD_MEMORY).
-    size_t kept_build_bytes() const { return kept_blocks_.bytes(); }
+    size_t kept_build_bytes() const { return kept_blocks_ ? kept_blocks_->bytes() : 0; }
 
     /// Argument checks only; contents are checked by build(). Throws Error.
     void set_triangles(const float *vertices, size_t vertex_count, size_t vertex_stride, const uint32_t *indices,
@@ -61,7 +62,9 @@ private:
     const float *triangle_copy() const { return triangles_.empty() ? nullptr : triangles_.data(); }
 
     Scheduler &scheduler_;
-    BlockCache kept_blocks_; ///< AACBVH_PARAM_KEEP_BUILD_MEMORY; first, so it outlives the arrays below
+    /// AACBVH_PARAM_KEEP_BUILD_MEMORY's blocks, made when the setting is first
+    /// used (handles without it pay nothing); first, so it outlives the arrays below.
+    std::unique_ptr<BlockCache> kept_blocks_;
     Geometry geometry_;
     bool geometry_set_ = false;
     Bvh bvh_;

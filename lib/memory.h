@@ -83,10 +83,15 @@ private:
 
 constexpr size_t kHugePageBytes = size_t(1) << 21;
 
-inline void *allocate_build_memory(size_t bytes) {
+/// Over-aligned element types (such as 64-byte wide nodes) get their
+/// alignment in small blocks too; big blocks are 2 MiB aligned anyway.
+inline bool over_aligned(size_t align) { return align > __STDCPP_DEFAULT_NEW_ALIGNMENT__; }
+
+inline void *allocate_build_memory(size_t bytes, size_t align = alignof(std::max_align_t)) {
     testing::check_allocation();
     if (MemoryMeter *m = MemoryMeter::current()) m->add(int64_t(bytes));
-    if (bytes < kHugePageBytes) return ::operator new(bytes);
+    if (bytes < kHugePageBytes)
+        return over_aligned(align) ? ::operator new(bytes, std::align_val_t(align)) : ::operator new(bytes);
     const size_t rounded = (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
     if (BlockCache *cache = BlockCache::current())
         if (void *kept = cache->take(rounded)) return kept;
@@ -98,10 +103,12 @@ inline void *allocate_build_memory(size_t bytes) {
     return p;
 }
 
-inline void free_build_memory(void *p, size_t bytes) {
+inline void free_build_memory(void *p, size_t bytes, size_t align = alignof(std::max_align_t)) {
     if (!p) return;
     if (MemoryMeter *m = MemoryMeter::current()) m->add(-int64_t(bytes));
-    if (bytes < kHugePageBytes)
+    if (bytes < kHugePageBytes && over_aligned(align))
+        ::operator delete(p, std::align_val_t(align));
+    else if (bytes < kHugePageBytes)
         ::operator delete(p);
     else if (BlockCache *cache = BlockCache::current())
         cache->keep(p, (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1));
@@ -116,9 +123,9 @@ template <class T> struct BuildAllocator {
 
     T *allocate(size_t n) {
         if (n > size_t(-1) / sizeof(T)) throw std::bad_alloc();
-        return static_cast<T *>(allocate_build_memory(n * sizeof(T)));
+        return static_cast<T *>(allocate_build_memory(n * sizeof(T), alignof(T)));
     }
-    void deallocate(T *p, size_t n) noexcept { free_build_memory(p, n * sizeof(T)); }
+    void deallocate(T *p, size_t n) noexcept { free_build_memory(p, n * sizeof(T), alignof(T)); }
 
     /// Default-initialise (no zeroing) when constructed without arguments.
     template <class U> void construct(U *p) noexcept { ::new (static_cast<void *>(p)) U; }

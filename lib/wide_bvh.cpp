@@ -24,11 +24,9 @@
 
 namespace aacbvh {
 
-void WideBvh::FreeAligned::operator()(void *p) const { std::free(p); }
-
 void WideBvh::clear() {
-    nodes_.reset();
-    sources_.reset();
+    Array<WideNode>().swap(nodes_);
+    Array<uint32_t>().swap(sources_);
     node_count_ = 0;
     built_ = false;
 }
@@ -51,7 +49,7 @@ void set_slot_box(WideNode &node, int k, const Box &b) {
 
 } // namespace
 
-void WideBvh::build(const Bvh &bvh) {
+void WideBvh::build(const Bvh &bvh, Scheduler &scheduler) {
     if (bvh.empty()) {
         clear();
         built_ = true;
@@ -62,12 +60,13 @@ void WideBvh::build(const Bvh &bvh) {
     for (size_t i = 0; i < bvh.nodes.size(); ++i) inner += bnodes[i].is_leaf() ? 0 : 1;
     // Every wide node but a lone leaf's consumes a distinct binary inner node.
     const size_t capacity = inner > 0 ? inner : 1;
-    testing::check_allocation(); // the out-of-memory test reaches this block too
-    void *raw = std::aligned_alloc(alignof(WideNode), capacity * sizeof(WideNode));
-    if (!raw) throw std::bad_alloc();
-    std::unique_ptr<WideNode[], FreeAligned> nodes(static_cast<WideNode *>(raw));
-    std::unique_ptr<uint32_t[]> sources(new uint32_t[4 * capacity]);
 
+    // Pass 1, depth-first: the binary nodes that become each wide node's
+    // children (kept for refit as `sources`), and the index of its first
+    // inner child's wide node (the others follow it). The wide nodes
+    // themselves are written in pass 2, once their number is known.
+    Array<uint32_t> sources(4 * capacity);
+    Array<uint32_t> first_child(capacity);
     struct Work {
         uint32_t binary; ///< binary node whose subtree the wide node covers
         uint32_t wide;
@@ -100,30 +99,40 @@ void WideBvh::build(const Bvh &bvh) {
                 kids[n++] = first + 1;
             }
         }
-        WideNode &node = nodes[w.wide];
         uint32_t *src = &sources[4 * size_t(w.wide)];
+        uint32_t wide_kid[4];
+        first_child[w.wide] = next;
         for (int k = 0; k < 4; ++k) {
-            if (k >= n) {
-                set_empty_slot(node, k);
-                src[k] = WideNode::kEmptyChild;
-                continue;
-            }
-            const Node &c = bnodes[kids[k]];
-            set_slot_box(node, k, c.box);
-            src[k] = kids[k];
-            if (c.is_leaf()) {
-                node.child[k] = c.first;
-                node.count[k] = c.count;
-            } else {
-                node.child[k] = next++;
-                node.count[k] = 0;
-            }
+            src[k] = k < n ? kids[k] : WideNode::kEmptyChild;
+            wide_kid[k] = k < n && !bnodes[kids[k]].is_leaf() ? next++ : WideNode::kEmptyChild;
         }
         // Reverse order: the first child's subtree is laid out first.
         for (int k = n; k-- > 0;)
-            if (node.count[k] == 0) work.push_back(Work{kids[k], node.child[k]});
+            if (wide_kid[k] != WideNode::kEmptyChild) work.push_back(Work{kids[k], wide_kid[k]});
     }
 
+    // Pass 2, in parallel: the nodes, exactly as many as pass 1 made.
+    Array<WideNode> nodes(next);
+    scheduler.parallel_for(0, next, 1u << 12, [&](size_t b, size_t e) {
+        for (size_t w = b; w < e; ++w) {
+            WideNode &node = nodes[w];
+            uint32_t child = first_child[w];
+            for (int k = 0; k < 4; ++k) {
+                const uint32_t src = sources[4 * w + k];
+                if (src == WideNode::kEmptyChild) {
+                    set_empty_slot(node, k);
+                    continue;
+                }
+                const Node &c = bnodes[src];
+                set_slot_box(node, k, c.box);
+                node.child[k] = c.is_leaf() ? c.first : child++;
+                node.count[k] = c.count;
+            }
+        }
+    });
+    Array<uint32_t>().swap(first_child);
+    sources.resize(4 * size_t(next));
+    sources.shrink_to_fit(); // a small copy: 16 bytes per wide node
     nodes_ = std::move(nodes);
     sources_ = std::move(sources);
     node_count_ = next;
@@ -132,8 +141,8 @@ void WideBvh::build(const Bvh &bvh) {
 
 void WideBvh::refit(const Bvh &bvh, Scheduler &scheduler) {
     const Node *bnodes = bvh.nodes.data();
-    WideNode *nodes = nodes_.get();
-    const uint32_t *sources = sources_.get();
+    WideNode *nodes = nodes_.data();
+    const uint32_t *sources = sources_.data();
     scheduler.parallel_for(0, node_count_, 1u << 12, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i)
             for (int k = 0; k < 4; ++k)

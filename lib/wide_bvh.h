@@ -19,6 +19,7 @@
 #include "aacbvh/aacbvh.h"
 #include "bvh.h"
 #include "geometry.h"
+#include "memory.h"
 #include "scheduler.h"
 
 namespace aacbvh {
@@ -46,12 +47,12 @@ public:
     /// Whether build() has made a tree (possibly of zero nodes, for an empty scene).
     bool built() const { return built_; }
     size_t node_count() const { return node_count_; }
-    const WideNode *nodes() const { return nodes_.get(); }
+    const WideNode *nodes() const { return nodes_.data(); }
 
     /// Collapses `bvh` (which must outlive queries on this tree and keep its
     /// topology). Replaces the previous tree only on success; throws
     /// std::bad_alloc.
-    void build(const Bvh &bvh);
+    void build(const Bvh &bvh, Scheduler &scheduler);
     /// Copies the boxes of `bvh` (same topology as at build(), refitted) into
     /// the wide nodes. Linear time, no allocation.
     void refit(const Bvh &bvh, Scheduler &scheduler);
@@ -59,17 +60,16 @@ public:
     void clear();
 
     size_t memory_bytes() const {
-        return node_count_ * (sizeof(WideNode) + 4 * sizeof(uint32_t));
+        return nodes_.capacity() * sizeof(WideNode) + sources_.capacity() * sizeof(uint32_t);
     }
 
 private:
-    struct FreeAligned {
-        void operator()(void *p) const;
-    };
-    std::unique_ptr<WideNode[], FreeAligned> nodes_;
+    /// Build arrays (lib/memory.h): counted in the build's peak, huge pages,
+    /// reused with AACBVH_PARAM_KEEP_BUILD_MEMORY.
+    Array<WideNode> nodes_;
     /// For refit: the binary node behind each child slot (4 per wide node,
     /// kEmptyChild for unused slots). Kept apart: traversal never reads it.
-    std::unique_ptr<uint32_t[]> sources_;
+    Array<uint32_t> sources_;
     size_t node_count_ = 0;
     bool built_ = false;
 };

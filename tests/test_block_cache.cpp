@@ -1,7 +1,8 @@
 // Unit tests of the kept build memory (lib/block_cache.h) and of its use by a
 // BVH handle (lib/bvh_object.h, AACBVH_PARAM_KEEP_BUILD_MEMORY): which block a
 // request gets, what a build keeps and frees, and that the setting's memory
-// goes away when it is switched off.
+// goes away when it is switched off; and that the 4-wide tree is counted as
+// build memory.
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -22,6 +23,7 @@ extern "C" {
 #include "error.h"
 #include "memory.h"
 #include "scheduler.h"
+#include "wide_bvh.h"
 
 using aacbvh::BlockCache;
 
@@ -196,6 +198,31 @@ void test_failures_with_kept_memory(void **) {
     assert_true(k > 5); // the build's arrays were reached one by one
 }
 
+/// The 4-wide tree is build memory like the rest: the meter that gives
+/// build_peak_bytes sees it, and it is exactly as big as memory_bytes says.
+void test_wide_tree_is_metered(void **) {
+    aacbvh::Scheduler scheduler(2);
+    aacbvh::BvhObject object(scheduler);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    const size_t triangles = 20000;
+    std::vector<float> vertices(9 * triangles);
+    for (float &v : vertices) v = u(rng);
+    object.set_triangles(vertices.data(), 3 * triangles, 3 * sizeof(float), nullptr, triangles);
+    object.build();
+
+    aacbvh::MemoryMeter meter;
+    aacbvh::WideBvh wide;
+    {
+        const aacbvh::MemoryMeter::Scope metered(meter);
+        wide.build(object.tree(), scheduler);
+    }
+    assert_true(wide.node_count() > 0);
+    assert_int_equal(wide.memory_bytes(), wide.node_count() * (sizeof(aacbvh::WideNode) + 4 * sizeof(uint32_t)));
+    assert_true(uint64_t(meter.peak()) >= wide.memory_bytes());
+    assert_int_equal(reinterpret_cast<uintptr_t>(wide.nodes()) % alignof(aacbvh::WideNode), 0);
+}
+
 } // namespace
 
 int main() {
@@ -206,6 +233,7 @@ int main() {
         cmocka_unit_test(test_allocator_uses_installed_cache),
         cmocka_unit_test(test_handle_keeps_and_frees),
         cmocka_unit_test(test_failures_with_kept_memory),
+        cmocka_unit_test(test_wide_tree_is_metered),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }
