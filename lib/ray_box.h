@@ -153,10 +153,13 @@ inline bool ray_box_primitive(const BoxRay &r, const float lo[3], const float hi
                               float tmax, float &t_entry) {
     float t0, t1;
     slab_interval(r, lo, hi, tmin, tmax, t0, t1);
-    t_entry = t0;
     // An entry beyond FLT_MAX (a denormal direction component crawling towards
-    // the box) is not a hit: no float t describes it, as for triangles.
-    return t0 <= t1 && t0 < INFINITY;
+    // the box) is not a hit: no float t describes it, as for triangles; nor is
+    // an exit before -FLT_MAX. An entry before -FLT_MAX (tmin = -inf, the ray
+    // inside the box, a component so small that the slab distance overflows)
+    // is a hit whose t saturates at -FLT_MAX: hits always have a finite t.
+    t_entry = t0 > -FLT_MAX ? t0 : -FLT_MAX;
+    return t0 <= t1 && t0 < INFINITY && t1 > -INFINITY;
 }
 
 } // namespace aacbvh

@@ -400,11 +400,46 @@ static void test_box_entry_beyond_float(void **state) {
     }
 }
 
+/* Found by the fuzzer, the mirror case: a ray inside a box primitive, with
+ * tmin = -inf and a direction component so small that the box's slab is
+ * entered before -FLT_MAX, was reported at t = -inf. It is a hit (the ray is
+ * inside the box for every t), at t = -FLT_MAX, the nearest float; a box
+ * left before -FLT_MAX is a miss. Both layouts. */
+static void test_box_entry_before_float(void **state) {
+    (void)state;
+    const float box[6] = {-4.0f, -4.0f, -0.5f, 4.0f, 4.0f, 0.5f};
+    const aacbvh_ray inside = {{0.25f, -2.0f, 0.0f}, -INFINITY, {0.0f, 1e-40f, 0.0f}, INFINITY};
+    const aacbvh_ray behind = {{0.25f, -2.0f, 3.0f}, -INFINITY, {0.0f, 0.0f, 1.1e-41f}, 0.0f};
+    for (int layout = AACBVH_LAYOUT_BINARY; layout <= AACBVH_LAYOUT_WIDE4; ++layout) {
+        aacbvh_context *ctx;
+        aacbvh_bvh *bvh;
+        aacbvh_hit hit;
+        uint8_t occluded = 7;
+        ts_create(1, &ctx, &bvh);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, layout), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(bvh, box, 1, sizeof box), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_intersect(bvh, &inside, &hit, 1), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_occluded(bvh, &inside, &occluded, 1), AACBVH_OK);
+        if (hit.prim_id != 0 || hit.t != -FLT_MAX || occluded != 1)
+            fail_msg("layout %d, inside: prim %u at t = %g, occluded %u; want prim 0 at -FLT_MAX", layout,
+                     hit.prim_id, hit.t, occluded);
+        TS_EXPECT_STATUS(aacbvh_bvh_intersect(bvh, &behind, &hit, 1), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_occluded(bvh, &behind, &occluded, 1), AACBVH_OK);
+        if (hit.prim_id != AACBVH_INVALID_ID || occluded != 0)
+            fail_msg("layout %d, behind: prim %u at t = %g, occluded %u; want a miss", layout, hit.prim_id, hit.t,
+                     occluded);
+        aacbvh_bvh_destroy(bvh);
+        aacbvh_context_destroy(ctx);
+    }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_axis_parallel),
         cmocka_unit_test(test_zero_and_denormal_components),
         cmocka_unit_test(test_box_entry_beyond_float),
+        cmocka_unit_test(test_box_entry_before_float),
         cmocka_unit_test(test_surface_origin_and_windows),
         cmocka_unit_test(test_empty_windows_always_miss),
         cmocka_unit_test(test_invalid_rays_in_a_batch),

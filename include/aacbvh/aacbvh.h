@@ -393,7 +393,9 @@ typedef struct aacbvh_ray {
  * A hit, 16 bytes. prim_id is AACBVH_INVALID_ID on a miss (t, u, v are then
  * INFINITY, 0, 0). The hit point is (1 - u - v) * v0 + u * v1 + v * v2. For
  * boxes, t is the distance at which the ray enters the box (clamped to tmin)
- * and u = v = 0.
+ * and u = v = 0. A hit's t is always finite: a box entered before -FLT_MAX
+ * (possible with tmin = -INFINITY) reports -FLT_MAX, and one reached only
+ * beyond FLT_MAX or left before -FLT_MAX is a miss.
  */
 typedef struct aacbvh_hit {
     float t;
