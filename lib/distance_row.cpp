@@ -126,7 +126,6 @@ RowFn pick_row_function() {
 }
 
 const RowFn kRowFunction = pick_row_function();
-const bool kHaveAvx = __builtin_cpu_supports("avx");
 
 /// Minimum of row[0, count) and the first index holding it, in one pass:
 /// each of four lanes keeps its smallest value and where it first saw it
@@ -181,7 +180,7 @@ uint32_t argmin_row(const float *row, uint32_t count, float &best) {
 uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out,
                              uint32_t self, float &best) {
 #ifdef AACBVH_X86
-    if (kHaveAvx) return distance_row_argmin_avx(boxes, count, query, scale, out, self, best);
+    if (kRowFunction == distance_row_avx) return distance_row_argmin_avx(boxes, count, query, scale, out, self, best);
 #endif
     distance_row(boxes, count, query, scale, out);
     out[self] = INFINITY;

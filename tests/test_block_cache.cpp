@@ -31,6 +31,19 @@ namespace {
 
 constexpr size_t kMiB = size_t(1) << 20;
 
+/// Random triangles in [-1, 1]^3, 9 floats each (no index buffer).
+std::vector<float> random_soup(size_t triangles, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    std::vector<float> vertices(9 * triangles);
+    for (float &v : vertices) v = u(rng);
+    return vertices;
+}
+
+void set_soup(aacbvh::BvhObject &object, const std::vector<float> &vertices) {
+    object.set_triangles(vertices.data(), vertices.size() / 3, 3 * sizeof(float), nullptr, vertices.size() / 9);
+}
+
 void *block(size_t bytes) {
     void *p = std::aligned_alloc(aacbvh::kHugePageBytes, bytes);
     assert_non_null(p);
@@ -108,12 +121,8 @@ void test_allocator_uses_installed_cache(void **) {
 void test_handle_keeps_and_frees(void **) {
     aacbvh::Scheduler scheduler(2);
     aacbvh::BvhObject object(scheduler);
-    std::mt19937 rng(3);
-    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-    const size_t triangles = 50000;
-    std::vector<float> vertices(9 * triangles);
-    for (float &v : vertices) v = u(rng);
-    object.set_triangles(vertices.data(), 3 * triangles, 3 * sizeof(float), nullptr, triangles);
+    const std::vector<float> vertices = random_soup(50000, 3);
+    set_soup(object, vertices);
 
     object.build();
     assert_int_equal(object.kept_build_bytes(), 0); // off by default
@@ -148,14 +157,11 @@ bool same_tree(const aacbvh::Bvh &a, const aacbvh::Bvh &b) {
 void test_failures_with_kept_memory(void **) {
     aacbvh::Scheduler scheduler(1);
     aacbvh::BvhObject object(scheduler), fresh(scheduler);
-    std::mt19937 rng(5);
-    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-    const size_t triangles = 100000; // arrays of 2 MiB and more, the ones kept
-    std::vector<float> vertices(9 * triangles), moved(9 * triangles);
-    for (float &v : vertices) v = u(rng);
-    for (size_t i = 0; i < moved.size(); ++i) moved[i] = vertices[i] + 0.05f * u(rng);
-    fresh.set_triangles(moved.data(), 3 * triangles, 3 * sizeof(float), nullptr, triangles);
-    fresh.build();
+    // 100 K triangles: arrays of 2 MiB and more, the ones kept.
+    const std::vector<float> vertices = random_soup(100000, 5), offsets = random_soup(100000, 6);
+    std::vector<float> moved(vertices.size());
+    for (size_t i = 0; i < moved.size(); ++i) moved[i] = vertices[i] + 0.05f * offsets[i];
+    set_soup(fresh, moved);
     object.set_param_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_FAST);
     fresh.set_param_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_FAST);
     fresh.build();
@@ -163,14 +169,14 @@ void test_failures_with_kept_memory(void **) {
 
     int64_t k = 1;
     for (;; ++k) {
-        object.set_triangles(vertices.data(), 3 * triangles, 3 * sizeof(float), nullptr, triangles);
+        set_soup(object, vertices);
         object.build();
         object.build();
         const aacbvh::Bvh before = aacbvh::Bvh{aacbvh::Array<aacbvh::Node>(object.tree().nodes),
                                                aacbvh::Array<uint32_t>(object.tree().prim_ids)};
         const size_t kept = object.kept_build_bytes();
         assert_true(kept > 0); // the failures below hit a build that reuses blocks
-        object.set_triangles(moved.data(), 3 * triangles, 3 * sizeof(float), nullptr, triangles);
+        set_soup(object, moved);
         aacbvh::testing::alloc_fail_countdown.store(k);
         bool failed = false;
         try {
@@ -203,12 +209,8 @@ void test_failures_with_kept_memory(void **) {
 void test_wide_tree_is_metered(void **) {
     aacbvh::Scheduler scheduler(2);
     aacbvh::BvhObject object(scheduler);
-    std::mt19937 rng(7);
-    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-    const size_t triangles = 20000;
-    std::vector<float> vertices(9 * triangles);
-    for (float &v : vertices) v = u(rng);
-    object.set_triangles(vertices.data(), 3 * triangles, 3 * sizeof(float), nullptr, triangles);
+    const std::vector<float> vertices = random_soup(20000, 7);
+    set_soup(object, vertices);
     object.build();
 
     aacbvh::MemoryMeter meter;
