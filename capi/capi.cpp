@@ -9,8 +9,8 @@
 
 #include "aacbvh/aacbvh.h"
 #include "bvh_object.h"
-#include "error.h"
-#include "scheduler.h"
+#include "core/error.h"
+#include "core/scheduler.h"
 
 struct aacbvh_context {
     explicit aacbvh_context(unsigned threads) : scheduler(threads) {}

@@ -7,14 +7,18 @@
 #include <string>
 #include <utility>
 
-#include "binary_tree.h"
-#include "build_context.h"
-#include "build_input.h"
-#include "builders.h"
-#include "error.h"
-#include "flatten.h"
-#include "memory.h"
-#include "traversal.h"
+#include "build/aac/aac_builder.h"
+#include "build/binary_tree.h"
+#include "build/build_context.h"
+#include "build/build_input.h"
+#include "build/flatten.h"
+#include "build/reference/reference_builders.h"
+#include "bvh/bvh_refit.h"
+#include "bvh/bvh_stats.h"
+#include "core/error.h"
+#include "core/memory.h"
+#include "trace/traversal.h"
+#include "trace/wide_traversal.h"
 
 namespace aacbvh {
 
@@ -139,10 +143,10 @@ void BvhObject::build() {
                 decided = true;
                 break;
             case AACBVH_BUILDER_SWEEP_SAH:
-                build_sweep_sah(input, params.traversal_cost, params.intersection_cost, ctx, tree);
+                build_sweep_sah(input, ctx, tree);
                 break;
             case AACBVH_BUILDER_BINNED_SAH:
-                build_binned_sah(input, params.traversal_cost, params.intersection_cost, ctx, tree);
+                build_binned_sah(input, ctx, tree);
                 break;
             case AACBVH_BUILDER_LOCALLY_ORDERED:
                 build_locally_ordered(input, ctx, tree);

@@ -9,12 +9,13 @@
 #include <mutex>
 
 #include "aacbvh/aacbvh.h"
-#include "block_cache.h"
-#include "bvh.h"
-#include "geometry.h"
+#include "bvh/bvh.h"
+#include "bvh/bvh_stats.h"
+#include "bvh/wide_bvh.h"
+#include "core/block_cache.h"
+#include "core/geometry.h"
+#include "core/scheduler.h"
 #include "params.h"
-#include "scheduler.h"
-#include "wide_bvh.h"
 
 namespace aacbvh {
 

@@ -4,7 +4,7 @@
 #include <cstdint>
 
 #include "aacbvh/aacbvh.h"
-#include "builders.h"
+#include "build/aac/aac_builder.h"
 
 namespace aacbvh {
 

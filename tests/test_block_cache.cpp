@@ -18,12 +18,12 @@ extern "C" {
 #include <random>
 #include <vector>
 
-#include "block_cache.h"
+#include "bvh/wide_bvh.h"
 #include "bvh_object.h"
-#include "error.h"
-#include "memory.h"
-#include "scheduler.h"
-#include "wide_bvh.h"
+#include "core/block_cache.h"
+#include "core/error.h"
+#include "core/memory.h"
+#include "core/scheduler.h"
 
 using aacbvh::BlockCache;
 

@@ -20,9 +20,9 @@ extern "C" {
 #include <cmath>
 #include <cstdio>
 
-#include "box.h"
-#include "ray_box.h"
-#include "triangle_intersect.h"
+#include "core/box.h"
+#include "trace/ray_box.h"
+#include "trace/triangle_intersect.h"
 
 namespace {
 

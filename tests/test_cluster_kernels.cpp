@@ -17,7 +17,7 @@ extern "C" {
 #include <random>
 #include <vector>
 
-#include "distance_row.h"
+#include "build/aac/distance_row.h"
 
 namespace {
 

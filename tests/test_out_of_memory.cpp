@@ -35,7 +35,7 @@ extern "C" {
 #include <cmocka.h>
 }
 
-#include "memory.h"
+#include "core/memory.h"
 
 // ---------------------------------------------------------------------------
 // Global operator new/delete: count live blocks, consult the countdown.

@@ -19,7 +19,8 @@ extern "C" {
 #include <random>
 #include <vector>
 
-#include "builders.h"
+#include "build/aac/aac_builder.h"
+#include "build/reference/reference_builders.h"
 
 using namespace aacbvh;
 
@@ -33,8 +34,8 @@ struct NamedBuilder {
 };
 
 const NamedBuilder kBuilders[] = {
-    {"sweep_sah", [](const BuildInput &in, BuildContext &ctx, BinaryTree &out) { build_sweep_sah(in, 1.0, 1.0, ctx, out); }},
-    {"binned_sah", [](const BuildInput &in, BuildContext &ctx, BinaryTree &out) { build_binned_sah(in, 1.0, 1.0, ctx, out); }},
+    {"sweep_sah", [](const BuildInput &in, BuildContext &ctx, BinaryTree &out) { build_sweep_sah(in, ctx, out); }},
+    {"binned_sah", [](const BuildInput &in, BuildContext &ctx, BinaryTree &out) { build_binned_sah(in, ctx, out); }},
     {"locally_ordered", [](const BuildInput &in, BuildContext &ctx, BinaryTree &out) { build_locally_ordered(in, ctx, out); }},
     {"ploc_r1", [](const BuildInput &in, BuildContext &ctx, BinaryTree &out) { build_ploc(in, 1, ctx, out); }},
     {"ploc_r16", [](const BuildInput &in, BuildContext &ctx, BinaryTree &out) { build_ploc(in, 16, ctx, out); }},

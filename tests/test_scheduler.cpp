@@ -20,7 +20,7 @@ extern "C" {
 #include <thread>
 #include <vector>
 
-#include "scheduler.h"
+#include "core/scheduler.h"
 
 using aacbvh::Scheduler;
 

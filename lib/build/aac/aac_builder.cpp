@@ -1,0 +1,138 @@
+// Approximate Agglomerative Clustering (Gu, He, Fatahalian, Blelloch, HPG 2013).
+//
+// 1. Morton codes of the primitives' centroids, radix sorted.
+// 2. Downward phase: split the sorted range at the highest bit on which its
+//    codes differ (the middle when all are equal) until fewer than delta remain.
+// 3. Upward phase: each range greedily combines the clusters its two halves
+//    handed up (contiguous in `clusters`, as the paper's "reduce data
+//    movement" asks) down to f(n) = ceil(c n^alpha); the root down to one.
+//
+// Node ids are deterministic whatever the thread count: the range [b, e) owns
+// the inner ids n + b .. n + e - 1 and uses fewer than e - b of them; the ids a
+// range leaves unused travel up beside its clusters in `free_ids`.
+#include <algorithm>
+#include <cmath>
+
+#include "build/aac/aac_builder.h"
+#include "build/aac/cluster_combine.h"
+#include "build/morton.h"
+
+namespace aacbvh {
+
+uint32_t aac_cluster_target(const AacConfig &config, uint32_t n) {
+    // The presets make f(delta) an integer (delta / 2); pow() lands a hair above
+    // it (10.000000000000002 for HQ), so round off that noise before the ceil.
+    const double f = std::ceil(config.c * std::pow(double(n), config.alpha) * (1.0 - 1e-12));
+    if (!(f >= 1.0)) return 1;
+    return f >= double(n) ? n : uint32_t(f);
+}
+
+namespace {
+
+/// Ranges at least this long are split into two parallel tasks.
+constexpr uint32_t kParallelGrain = 1u << 12;
+
+class AacRecursion {
+public:
+    AacRecursion(const AacConfig &config, const FlattenRule &rule, BuildContext &ctx, BinaryTree &tree,
+                 SubtreeChoices &choices, const uint64_t *codes, float scale)
+        : config_(config), rule_(rule), ctx_(ctx), tree_(tree), choices_(choices.data()), codes_(codes), scale_(scale),
+          n_(tree.leaf_count()), clusters_(n_), free_ids_(n_) {
+        // f(n) of the many small nodes comes from a table instead of pow().
+        small_targets_.resize(std::min<uint32_t>(n_, kTargetTableSize) + 1);
+        for (uint32_t i = 0; i < small_targets_.size(); ++i) small_targets_[i] = aac_cluster_target(config_, i);
+    }
+
+    void run() {
+        build(0, n_, true);
+        tree_.root = clusters_[0];
+    }
+
+private:
+    /// Builds range [b, e); returns how many clusters it leaves in clusters_[b, b + count).
+    /// The root range combines down to one cluster.
+    uint32_t build(uint32_t b, uint32_t e, bool root = false) {
+        const uint32_t n = e - b;
+        if (n < config_.delta) {
+            for (uint32_t i = 0; i < n; ++i) {
+                clusters_[b + i] = b + i;
+                free_ids_[b + i] = n_ + b + i;
+            }
+            thread_local CombineScratch scratch;
+            return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n,
+                                    root ? 1 : target(config_.delta), scale_, rule_, choices_, scratch, ctx_);
+        }
+        if (n >= 256) ctx_.poll();
+        const uint32_t m = split_point(b, e);
+        uint32_t left = 0, right = 0;
+        if (n >= kParallelGrain) {
+            ctx_.scheduler().fork_join([&] { left = build(b, m); }, [&] { right = build(m, e); });
+            ctx_.check_cancelled();
+        } else {
+            left = build(b, m);
+            right = build(m, e);
+        }
+        // The right half's clusters and free ids move next to the left half's.
+        std::copy(&clusters_[m], &clusters_[m] + right, &clusters_[b + left]);
+        std::copy(&free_ids_[m], &free_ids_[m] + right, &free_ids_[b + left]);
+        thread_local CombineScratch scratch;
+        return combine_clusters(tree_, &clusters_[b], &free_ids_[b], left + right,
+                                root ? 1 : target(n), scale_, rule_, choices_, scratch, ctx_);
+    }
+
+    /// The radix-tree split: first index whose code has the highest differing bit set.
+    uint32_t split_point(uint32_t b, uint32_t e) const {
+        const uint64_t first = codes_[b], last = codes_[e - 1];
+        if (first == last) return b + (e - b) / 2;
+        const int bit = 63 - __builtin_clzll(first ^ last);
+        const uint64_t mask = uint64_t(1) << bit;
+        const uint64_t *pos = std::partition_point(codes_ + b, codes_ + e, [mask](uint64_t c) { return !(c & mask); });
+        return uint32_t(pos - codes_);
+    }
+
+    const AacConfig &config_;
+    const FlattenRule &rule_;
+    BuildContext &ctx_;
+    BinaryTree &tree_;
+    SubtreeChoice *choices_;
+    uint32_t target(uint32_t n) const {
+        return n < small_targets_.size() ? small_targets_[n] : aac_cluster_target(config_, n);
+    }
+
+    static constexpr uint32_t kTargetTableSize = 4096;
+    const uint64_t *codes_;
+    float scale_;
+    uint32_t n_;
+    Array<uint32_t> clusters_;
+    Array<uint32_t> free_ids_;
+    std::vector<uint32_t> small_targets_;
+};
+
+} // namespace
+
+void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &rule, BuildContext &ctx,
+               BinaryTree &out, SubtreeChoices &choices) {
+    const uint32_t n = uint32_t(input.size());
+    Array<uint64_t> codes;
+    Array<uint32_t> order;
+    sort_by_morton_code(input, ctx.scheduler(), codes, order);
+    ctx.report(0.3);
+
+    out.resize(n);
+    ctx.scheduler().parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
+        for (size_t i = b; i < e; ++i) {
+            out.boxes[i] = input.boxes[order[i]];
+            out.prim_ids[i] = input.prim_ids[order[i]];
+        }
+    });
+    Array<uint32_t>().swap(order);
+    Array<Box>().swap(input.boxes); // the leaves hold them now, in Morton order
+    if (n == 1) {
+        out.root = 0;
+        return;
+    }
+    choices.resize(n);
+    AacRecursion(config, rule, ctx, out, choices, codes.data(), distance_scale(input.bounds)).run();
+}
+
+} // namespace aacbvh

@@ -1,0 +1,314 @@
+#include "build/aac/cluster_combine.h"
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+
+#include "build/aac/distance_row.h"
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#define AACBVH_SSE2 1
+#endif
+
+namespace aacbvh {
+
+namespace {
+
+/// Above this many clusters the pairwise matrix (count^2 floats) is not kept;
+/// rows are recomputed when needed instead (exact-clustering settings reach this).
+constexpr uint32_t kMatrixLimit = 2048;
+
+inline uint32_t padded(uint32_t n) { return (n + 7) & ~7u; }
+
+/// Live clusters' boxes as six columns (structure of arrays) for distance_row().
+class Columns {
+public:
+    Columns(float *base, uint32_t stride) {
+        for (int k = 0; k < 3; ++k) {
+            cols_.lo[k] = base + size_t(k) * stride;
+            cols_.hi[k] = base + size_t(k + 3) * stride;
+        }
+    }
+    const BoxColumns &columns() const { return cols_; }
+    void set(uint32_t i, const Box &b) {
+        for (int k = 0; k < 3; ++k) {
+            cols_.lo[k][i] = b.lo[k];
+            cols_.hi[k][i] = b.hi[k];
+        }
+    }
+    void query(uint32_t i, float q[6]) const {
+        for (int k = 0; k < 3; ++k) {
+            q[k] = cols_.lo[k][i];
+            q[k + 3] = cols_.hi[k][i];
+        }
+    }
+    void move(uint32_t from, uint32_t to) {
+        for (int k = 0; k < 3; ++k) {
+            cols_.lo[k][to] = cols_.lo[k][from];
+            cols_.hi[k][to] = cols_.hi[k][from];
+        }
+    }
+
+private:
+    BoxColumns cols_;
+};
+
+/// The nearest-neighbour bookkeeping after a merge, for every live slot j
+/// but a: clusters a and b (a < b) merged into slot a, the last live cluster
+/// moved from slot `last` (== live) into slot b, and da[j] = d(a, j). A slot
+/// whose nearest neighbour was a or b must search again: its index goes to
+/// `rescan` (the count is returned). The others follow a partner that moved
+/// from `last` to b, and take a when it is closer (or as close with a lower
+/// slot). SSE2 on x86-64, four slots at a time.
+uint32_t update_nearest(const float *da, float *nd, uint32_t *nn, uint32_t live, uint32_t a, uint32_t b, uint32_t last,
+                        uint32_t *rescan) {
+    uint32_t rescans = 0;
+    uint32_t j = 0;
+#ifdef AACBVH_SSE2
+    const __m128i va = _mm_set1_epi32(int(a)), vb = _mm_set1_epi32(int(b)), vlast = _mm_set1_epi32(int(last));
+    __m128i index = _mm_setr_epi32(0, 1, 2, 3);
+    const __m128i four = _mm_set1_epi32(4);
+    for (; j + 4 <= live; j += 4, index = _mm_add_epi32(index, four)) {
+        __m128i p = _mm_loadu_si128(reinterpret_cast<const __m128i *>(nn + j));
+        const __m128i not_a = _mm_xor_si128(_mm_cmpeq_epi32(index, va), _mm_set1_epi32(-1));
+        const __m128i again = _mm_and_si128(_mm_or_si128(_mm_cmpeq_epi32(p, va), _mm_cmpeq_epi32(p, vb)), not_a);
+        const __m128i moved = _mm_cmpeq_epi32(p, vlast);
+        p = _mm_or_si128(_mm_andnot_si128(moved, p), _mm_and_si128(moved, vb));
+        const __m128 d = _mm_loadu_ps(da + j), n = _mm_loadu_ps(nd + j);
+        const __m128i closer = _mm_castps_si128(_mm_or_ps(
+            _mm_cmplt_ps(d, n), _mm_and_ps(_mm_cmpeq_ps(d, n), _mm_castsi128_ps(_mm_cmpgt_epi32(p, va)))));
+        const __m128i take = _mm_andnot_si128(again, _mm_and_si128(closer, not_a));
+        p = _mm_or_si128(_mm_andnot_si128(take, p), _mm_and_si128(take, va));
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(nn + j), p);
+        _mm_storeu_ps(nd + j, _mm_or_ps(_mm_andnot_ps(_mm_castsi128_ps(take), n),
+                                        _mm_and_ps(_mm_castsi128_ps(take), d)));
+        int bits = _mm_movemask_ps(_mm_castsi128_ps(again));
+        while (bits) {
+            rescan[rescans++] = j + uint32_t(__builtin_ctz(unsigned(bits)));
+            bits &= bits - 1;
+        }
+    }
+#endif
+    for (; j < live; ++j) {
+        if (j == a) continue;
+        uint32_t &p = nn[j];
+        if (p == a || p == b) {
+            rescan[rescans++] = j;
+            continue;
+        }
+        if (p == last) p = b;
+        if (da[j] < nd[j] || (da[j] == nd[j] && a < p)) {
+            nd[j] = da[j];
+            p = a;
+        }
+    }
+    return rescans;
+}
+
+/// The greedy loop. With kMatrix, d(i, j) of live clusters is cached and only
+/// the merged cluster's row is recomputed, as the paper suggests; without, a
+/// row is recomputed whenever a nearest neighbour must be found again.
+template <bool kMatrix>
+uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target, float scale,
+                 const FlattenRule &rule, SubtreeChoice *choices, CombineScratch &s, BuildContext &ctx) {
+    const uint32_t n = tree.leaf_count();
+    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
+    const uint32_t stride = padded(count + 1); // + 1: a spare row for the non-matrix mode
+    Columns boxes(s.columns.data(), stride);
+    float *nd = s.nearest_distance.data();
+    uint32_t *nn = s.nearest.data();
+    uint32_t *rescan = s.rescan.data();
+    float *matrix = s.distances.data();
+    float q[6];
+
+    for (uint32_t i = 0; i < count; ++i) boxes.set(i, tree.boxes[ids[i]]);
+    // Padding lanes read by the SIMD row get a harmless box.
+    for (uint32_t i = count; i < stride; ++i) boxes.set(i, tree.boxes[ids[0]]);
+
+    // row(i) points at d(i, .) for the live clusters.
+    auto row = [&](uint32_t i, uint32_t live) -> const float * {
+        if (kMatrix) return matrix + size_t(i) * stride;
+        float *out = matrix; // one scratch row
+        boxes.query(i, q);
+        distance_row(boxes.columns(), live, q, scale, out);
+        out[i] = INFINITY;
+        return out;
+    };
+
+    // The diagonal is +inf so that nearest-neighbour scans need no self test.
+    for (uint32_t i = 0; i < count; ++i) {
+        boxes.query(i, q);
+        nn[i] = distance_row_argmin(boxes.columns(), count, q, scale, kMatrix ? matrix + size_t(i) * stride : matrix,
+                                    i, nd[i]);
+    }
+
+    uint32_t live = count;
+    uint32_t used = 0;
+    while (live > target) {
+        if ((live & 1023) == 0) ctx.poll();
+        float ignored;
+        uint32_t a = argmin_row(nd, live, ignored); // the closest pair, lowest slot on ties
+        uint32_t b = nn[a];
+        if (a > b) std::swap(a, b); // the merged cluster takes the lower slot
+
+        const uint32_t node = free_ids[used++];
+        const Box merged = unite(tree.boxes[ids[a]], tree.boxes[ids[b]]);
+        tree.boxes[node] = merged;
+        tree.set_children(node, ids[a], ids[b]);
+        choices[node - n] = rule.inner(merged, choice(ids[a]), choice(ids[b]));
+
+        // Slot b is freed by moving the last live cluster into it.
+        const uint32_t last = live - 1;
+        if (b != last) {
+            boxes.move(last, b);
+            ids[b] = ids[last];
+            nd[b] = nd[last];
+            nn[b] = nn[last];
+            if (kMatrix) {
+                std::copy(matrix + size_t(last) * stride, matrix + size_t(last) * stride + live,
+                          matrix + size_t(b) * stride);
+                for (uint32_t j = 0; j < live; ++j) matrix[size_t(j) * stride + b] = matrix[size_t(j) * stride + last];
+            }
+        }
+        live = last;
+        boxes.set(a, merged);
+        boxes.set(live, merged); // keep the padding lanes valid
+        ids[a] = node;
+
+        // The merged cluster's row, and its nearest neighbour.
+        float *da = kMatrix ? matrix + size_t(a) * stride : matrix;
+        boxes.query(a, q);
+        nn[a] = distance_row_argmin(boxes.columns(), live, q, scale, da, a, nd[a]);
+        if (kMatrix)
+            for (uint32_t j = 0; j < live; ++j) matrix[size_t(j) * stride + a] = da[j];
+
+        // Clusters whose nearest neighbour was merged look again; the others
+        // only compare with the new cluster. (Without the matrix the rescans
+        // reuse da's row, so da is read first.)
+        const uint32_t rescans = update_nearest(da, nd, nn, live, a, b, last, rescan);
+        for (uint32_t k = 0; k < rescans; ++k) nn[rescan[k]] = argmin_row(row(rescan[k], live), live, nd[rescan[k]]);
+    }
+
+    // Unused ids move to the front of free_ids for the caller.
+    for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
+    return live;
+}
+
+/// The same greedy loop for a handful of clusters (AAC-Fast's nodes hold 2 to
+/// 8): everything in registers and stack arrays, scalar distances, no
+/// padding. Same tie rules as combine(), so results are identical.
+constexpr uint32_t kSmallLimit = 16;
+
+/// argmin_row() for rows of a few entries, inlined.
+/// Branch-free: which entry is smallest is data, not a pattern to predict.
+inline uint32_t argmin_small(const float *row, uint32_t count, float &best) {
+    uint32_t arg = 0;
+    float b = row[0];
+    for (uint32_t j = 1; j < count; ++j) {
+        const bool less = row[j] < b;
+        b = less ? row[j] : b;
+        arg = less ? j : arg;
+    }
+    best = b;
+    return arg;
+}
+
+uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
+                       float scale, const FlattenRule &rule, SubtreeChoice *choices) {
+    const uint32_t n = tree.leaf_count();
+    Box box[kSmallLimit];
+    float d[kSmallLimit][kSmallLimit];
+    float nd[kSmallLimit];
+    uint32_t nn[kSmallLimit];
+    auto dist = [scale](const Box &a, const Box &b) {
+        const float dx = (std::max(a.hi[0], b.hi[0]) - std::min(a.lo[0], b.lo[0])) * scale;
+        const float dy = (std::max(a.hi[1], b.hi[1]) - std::min(a.lo[1], b.lo[1])) * scale;
+        const float dz = (std::max(a.hi[2], b.hi[2]) - std::min(a.lo[2], b.lo[2])) * scale;
+        const float d = dx * dy + dy * dz + dz * dx;
+        return d <= FLT_MAX ? d : FLT_MAX; // as distance_row(): never inf or NaN, below the +inf diagonal
+    };
+    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
+
+    for (uint32_t i = 0; i < count; ++i) box[i] = tree.boxes[ids[i]];
+    for (uint32_t i = 0; i < count; ++i) {
+        d[i][i] = INFINITY;
+        for (uint32_t j = i + 1; j < count; ++j) d[i][j] = d[j][i] = dist(box[i], box[j]);
+    }
+    for (uint32_t i = 0; i < count; ++i) nn[i] = argmin_small(d[i], count, nd[i]);
+
+    uint32_t live = count, used = 0;
+    while (live > target) {
+        float ignored;
+        uint32_t a = argmin_small(nd, live, ignored);
+        uint32_t b = nn[a];
+        if (a > b) std::swap(a, b);
+
+        const uint32_t node = free_ids[used++];
+        const Box merged = unite(box[a], box[b]);
+        tree.boxes[node] = merged;
+        tree.set_children(node, ids[a], ids[b]);
+        choices[node - n] = rule.inner(merged, choice(ids[a]), choice(ids[b]));
+
+        const uint32_t last = live - 1;
+        if (b != last) {
+            box[b] = box[last];
+            ids[b] = ids[last];
+            nd[b] = nd[last];
+            nn[b] = nn[last];
+            for (uint32_t j = 0; j < live; ++j) {
+                d[b][j] = d[last][j];
+                d[j][b] = d[j][last];
+            }
+            d[b][b] = INFINITY;
+        }
+        live = last;
+        box[a] = merged;
+        ids[a] = node;
+        for (uint32_t j = 0; j < live; ++j) {
+            const float daj = dist(merged, box[j]);
+            d[a][j] = d[j][a] = daj;
+        }
+        d[a][a] = INFINITY;
+        for (uint32_t j = 0; j < live; ++j) {
+            if (j == a) continue;
+            const float daj = d[a][j];
+            uint32_t &p = nn[j];
+            if (p == a || p == b) {
+                p = argmin_small(d[j], live, nd[j]);
+                continue;
+            }
+            p = p == last ? b : p;
+            const bool closer = daj < nd[j] || (daj == nd[j] && a < p);
+            nd[j] = closer ? daj : nd[j];
+            p = closer ? a : p;
+        }
+        nn[a] = argmin_small(d[a], live, nd[a]);
+    }
+    for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
+    return live;
+}
+
+} // namespace
+
+uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
+                          float scale, const FlattenRule &rule, SubtreeChoice *choices, CombineScratch &scratch,
+                          BuildContext &ctx) {
+    if (target < 1) target = 1;
+    if (count <= target) return count;
+    if (count <= kSmallLimit) return combine_small(tree, ids, free_ids, count, target, scale, rule, choices);
+    const uint32_t stride = padded(count + 1);
+    if (scratch.columns.size() < 6 * size_t(stride)) scratch.columns.resize(6 * size_t(stride));
+    if (scratch.nearest.size() < count) {
+        scratch.nearest_distance.resize(count);
+        scratch.nearest.resize(count);
+        scratch.rescan.resize(count);
+    }
+    const bool use_matrix = count <= kMatrixLimit;
+    const size_t matrix_floats = use_matrix ? size_t(count) * stride : stride;
+    if (scratch.distances.size() < matrix_floats) scratch.distances.resize(matrix_floats);
+    if (use_matrix) return combine<true>(tree, ids, free_ids, count, target, scale, rule, choices, scratch, ctx);
+    return combine<false>(tree, ids, free_ids, count, target, scale, rule, choices, scratch, ctx);
+}
+
+} // namespace aacbvh

@@ -1,0 +1,198 @@
+#include "build/aac/distance_row.h"
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define AACBVH_X86 1
+#endif
+
+namespace aacbvh {
+
+namespace {
+
+[[maybe_unused]] void distance_row_scalar(const BoxColumns &b, uint32_t count, const float q[6], float scale,
+                                          float *out) {
+    for (uint32_t j = 0; j < count; ++j) {
+        const float dx = (std::max(b.hi[0][j], q[3]) - std::min(b.lo[0][j], q[0])) * scale;
+        const float dy = (std::max(b.hi[1][j], q[4]) - std::min(b.lo[1][j], q[1])) * scale;
+        const float dz = (std::max(b.hi[2][j], q[5]) - std::min(b.lo[2][j], q[2])) * scale;
+        const float d = dx * dy + dy * dz + dz * dx;
+        out[j] = d <= FLT_MAX ? d : FLT_MAX;
+    }
+}
+
+[[maybe_unused]] uint32_t argmin_row_scalar(const float *row, uint32_t count, float &best) {
+    uint32_t arg = 0;
+    best = row[0];
+    for (uint32_t j = 1; j < count; ++j)
+        if (row[j] < best) { best = row[j]; arg = j; }
+    return arg;
+}
+
+#ifdef AACBVH_X86
+void distance_row_sse(const BoxColumns &b, uint32_t count, const float q[6], float scale, float *out) {
+    const __m128 qlx = _mm_set1_ps(q[0]), qly = _mm_set1_ps(q[1]), qlz = _mm_set1_ps(q[2]);
+    const __m128 qhx = _mm_set1_ps(q[3]), qhy = _mm_set1_ps(q[4]), qhz = _mm_set1_ps(q[5]);
+    const __m128 s = _mm_set1_ps(scale);
+    for (uint32_t j = 0; j < count; j += 4) {
+        const __m128 dx = _mm_mul_ps(_mm_sub_ps(_mm_max_ps(_mm_loadu_ps(b.hi[0] + j), qhx),
+                                                _mm_min_ps(_mm_loadu_ps(b.lo[0] + j), qlx)), s);
+        const __m128 dy = _mm_mul_ps(_mm_sub_ps(_mm_max_ps(_mm_loadu_ps(b.hi[1] + j), qhy),
+                                                _mm_min_ps(_mm_loadu_ps(b.lo[1] + j), qly)), s);
+        const __m128 dz = _mm_mul_ps(_mm_sub_ps(_mm_max_ps(_mm_loadu_ps(b.hi[2] + j), qhz),
+                                                _mm_min_ps(_mm_loadu_ps(b.lo[2] + j), qlz)), s);
+        const __m128 area = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dy), _mm_mul_ps(dy, dz)), _mm_mul_ps(dz, dx));
+        _mm_storeu_ps(out + j, _mm_min_ps(area, _mm_set1_ps(FLT_MAX)));
+    }
+}
+
+/// The query box broadcast to eight lanes, and the scale.
+struct QueryAvx {
+    __m256 lo[3], hi[3], scale;
+};
+
+__attribute__((target("avx"), always_inline)) inline QueryAvx query_avx(const float q[6], float scale) {
+    QueryAvx r;
+    for (int k = 0; k < 3; ++k) {
+        r.lo[k] = _mm256_set1_ps(q[k]);
+        r.hi[k] = _mm256_set1_ps(q[k + 3]);
+    }
+    r.scale = _mm256_set1_ps(scale);
+    return r;
+}
+
+/// Distances from the query to boxes j .. j + 7, clamped to FLT_MAX.
+__attribute__((target("avx"), always_inline)) inline __m256 distances_avx(const BoxColumns &b, uint32_t j,
+                                                                            const QueryAvx &q) {
+    __m256 d[3];
+    for (int k = 0; k < 3; ++k)
+        d[k] = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_loadu_ps(b.hi[k] + j), q.hi[k]),
+                                           _mm256_min_ps(_mm256_loadu_ps(b.lo[k] + j), q.lo[k])),
+                             q.scale);
+    const __m256 area =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[1]), _mm256_mul_ps(d[1], d[2])), _mm256_mul_ps(d[2], d[0]));
+    return _mm256_min_ps(area, _mm256_set1_ps(FLT_MAX));
+}
+
+__attribute__((target("avx"))) void distance_row_avx(const BoxColumns &b, uint32_t count, const float q[6],
+                                                      float scale, float *out) {
+    const QueryAvx query = query_avx(q, scale);
+    for (uint32_t j = 0; j < count; j += 8) _mm256_storeu_ps(out + j, distances_avx(b, j, query));
+}
+
+/// The AVX row with the nearest-neighbour search folded in: lanes past
+/// `count` and the `self` lane are not candidates; each lane keeps its
+/// smallest value and the first index holding it, then the lanes reduce.
+__attribute__((target("avx"))) uint32_t distance_row_argmin_avx(const BoxColumns &b, uint32_t count, const float q[6],
+                                                                float scale, float *out, uint32_t self, float &best) {
+    const QueryAvx query = query_avx(q, scale);
+    const __m256 inf = _mm256_set1_ps(INFINITY);
+    const __m256 self_index = _mm256_set1_ps(float(self)), end = _mm256_set1_ps(float(count));
+    const __m256 eight = _mm256_set1_ps(8.0f);
+    __m256 index = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+    __m256 m = inf, at = _mm256_setzero_ps();
+    for (uint32_t j = 0; j < count; j += 8, index = _mm256_add_ps(index, eight)) {
+        __m256 area = distances_avx(b, j, query);
+        // Selects with and/andnot/or: GCC scalarises blendv on compare masks here.
+        const __m256 is_self = _mm256_cmp_ps(index, self_index, _CMP_EQ_OQ);
+        area = _mm256_or_ps(_mm256_and_ps(is_self, inf), _mm256_andnot_ps(is_self, area));
+        _mm256_storeu_ps(out + j, area);
+        const __m256 inside = _mm256_cmp_ps(index, end, _CMP_LT_OQ);
+        const __m256 candidate = _mm256_or_ps(_mm256_and_ps(inside, area), _mm256_andnot_ps(inside, inf));
+        const __m256 less = _mm256_cmp_ps(candidate, m, _CMP_LT_OQ);
+        m = _mm256_min_ps(candidate, m); // = candidate where less, else m
+        at = _mm256_or_ps(_mm256_and_ps(less, index), _mm256_andnot_ps(less, at));
+    }
+    __m256 h = _mm256_min_ps(m, _mm256_permute2f128_ps(m, m, 1));
+    h = _mm256_min_ps(h, _mm256_shuffle_ps(h, h, _MM_SHUFFLE(1, 0, 3, 2)));
+    h = _mm256_min_ps(h, _mm256_shuffle_ps(h, h, _MM_SHUFFLE(2, 3, 0, 1)));
+    alignas(32) float where[8];
+    _mm256_store_ps(where, at);
+    int lanes = _mm256_movemask_ps(_mm256_cmp_ps(m, h, _CMP_EQ_OQ));
+    float arg = lanes ? where[__builtin_ctz(unsigned(lanes))] : 0.0f;
+    for (lanes &= lanes - 1; lanes; lanes &= lanes - 1) arg = std::min(arg, where[__builtin_ctz(unsigned(lanes))]);
+    best = _mm256_cvtss_f32(h);
+    return uint32_t(arg);
+}
+
+using RowFn = void (*)(const BoxColumns &, uint32_t, const float *, float, float *);
+
+RowFn pick_row_function() {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx") ? distance_row_avx : distance_row_sse;
+}
+
+const RowFn kRowFunction = pick_row_function();
+
+/// Minimum of row[0, count) and the first index holding it, in one pass:
+/// each of four lanes keeps its smallest value and where it first saw it
+/// (strict compares keep the earliest), then the lanes are reduced.
+uint32_t argmin_row_sse(const float *row, uint32_t count, float &best) {
+    __m128 m = _mm_set1_ps(INFINITY);
+    __m128i at = _mm_set1_epi32(0);
+    __m128i index = _mm_setr_epi32(0, 1, 2, 3);
+    const __m128i four = _mm_set1_epi32(4);
+    uint32_t j = 0;
+    for (; j + 4 <= count; j += 4, index = _mm_add_epi32(index, four)) {
+        const __m128 x = _mm_loadu_ps(row + j);
+        const __m128i less = _mm_castps_si128(_mm_cmplt_ps(x, m));
+        m = _mm_min_ps(m, x);
+        at = _mm_or_si128(_mm_andnot_si128(less, at), _mm_and_si128(less, index));
+    }
+    float v = INFINITY;
+    uint32_t arg = 0;
+    if (j > 0) {
+        // The smallest lane value, then the earliest index among the lanes holding it.
+        __m128 h = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
+        h = _mm_min_ps(h, _mm_shuffle_ps(h, h, _MM_SHUFFLE(1, 0, 3, 2)));
+        v = _mm_cvtss_f32(h);
+        alignas(16) uint32_t where[4];
+        _mm_store_si128(reinterpret_cast<__m128i *>(where), at);
+        int lanes = _mm_movemask_ps(_mm_cmpeq_ps(m, h));
+        arg = lanes ? where[__builtin_ctz(unsigned(lanes))] : 0;
+        for (lanes &= lanes - 1; lanes; lanes &= lanes - 1) arg = std::min(arg, where[__builtin_ctz(unsigned(lanes))]);
+    }
+    for (; j < count; ++j)
+        if (row[j] < v || (j == 0)) {
+            v = row[j];
+            arg = j;
+        }
+    if (!(v == v)) return argmin_row_scalar(row, count, best); // NaN entries: valid boxes never give them
+    best = v;
+    return arg;
+}
+#endif
+
+
+} // namespace
+
+uint32_t argmin_row(const float *row, uint32_t count, float &best) {
+#ifdef AACBVH_X86
+    return argmin_row_sse(row, count, best);
+#else
+    return argmin_row_scalar(row, count, best);
+#endif
+}
+
+uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out,
+                             uint32_t self, float &best) {
+#ifdef AACBVH_X86
+    if (kRowFunction == distance_row_avx) return distance_row_argmin_avx(boxes, count, query, scale, out, self, best);
+#endif
+    distance_row(boxes, count, query, scale, out);
+    out[self] = INFINITY;
+    return argmin_row(out, count, best);
+}
+
+void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out) {
+#ifdef AACBVH_X86
+    kRowFunction(boxes, count, query, scale, out);
+#else
+    distance_row_scalar(boxes, count, query, scale, out);
+#endif
+}
+
+} // namespace aacbvh

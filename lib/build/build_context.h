@@ -1,0 +1,64 @@
+// What every builder receives besides its input: the scheduler to run on and
+// the caller's progress callback (which may cancel the build).
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstddef>
+#include <thread>
+
+#include "aacbvh/aacbvh.h"
+#include "core/error.h"
+#include "core/scheduler.h"
+
+namespace aacbvh {
+
+class BuildContext {
+public:
+    BuildContext(Scheduler &scheduler, aacbvh_progress_fn progress, void *user)
+        : scheduler_(scheduler), progress_(progress), user_(user), owner_(std::this_thread::get_id()),
+          last_call_(std::chrono::steady_clock::now()) {}
+
+    Scheduler &scheduler() const { return scheduler_; }
+
+    /// Reports progress in [0, 1] and throws Error(AACBVH_ERROR_CANCELLED) if the
+    /// callback asks to stop. Call it from the thread that started the build.
+    void report(double fraction) {
+        if (cancelled_.load(std::memory_order_relaxed)) throw_cancelled();
+        fraction_ = fraction;
+        if (progress_) {
+            last_call_ = std::chrono::steady_clock::now();
+            if (!progress_(user_, fraction)) {
+                cancelled_.store(true, std::memory_order_relaxed);
+                throw_cancelled();
+            }
+        }
+    }
+    /// For long phases: from the building thread, calls the progress callback
+    /// (with the last fraction) at most every few milliseconds, so a cancel is
+    /// noticed promptly; from other threads, only checks for a cancel.
+    void poll() {
+        check_cancelled();
+        if (!progress_ || std::this_thread::get_id() != owner_) return;
+        const auto now = std::chrono::steady_clock::now();
+        if (now - last_call_ >= std::chrono::milliseconds(5)) report(fraction_);
+    }
+    /// Cheap check that worker tasks may call anywhere.
+    void check_cancelled() const {
+        if (cancelled_.load(std::memory_order_relaxed)) throw_cancelled();
+    }
+
+private:
+    [[noreturn]] static void throw_cancelled() {
+        throw Error(AACBVH_ERROR_CANCELLED, "build cancelled by the progress callback");
+    }
+    Scheduler &scheduler_;
+    aacbvh_progress_fn progress_;
+    void *user_;
+    std::thread::id owner_;
+    std::chrono::steady_clock::time_point last_call_;
+    double fraction_ = 0.0;
+    std::atomic<bool> cancelled_{false};
+};
+
+} // namespace aacbvh

@@ -1,0 +1,33 @@
+// The primitives a builder sees: one box per valid primitive, after the
+// geometry was checked (primitive_bounds.h).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "build/build_context.h"
+#include "core/box.h"
+#include "core/geometry.h"
+#include "core/memory.h"
+
+namespace aacbvh {
+
+struct BuildInput {
+    Array<Box> boxes;                ///< boxes[i] bounds primitive prim_ids[i]
+    Array<uint32_t> prim_ids;        ///< the caller's primitive index of entry i
+    Box bounds = Box::empty();       ///< union of all boxes
+    Box centroid_bounds = Box::empty(); ///< bounds of the boxes' centres
+    uint64_t invalid_count = 0;      ///< primitives left out as invalid
+
+    size_t size() const { return boxes.size(); }
+};
+
+/// Why primitive i of the geometry is invalid (NaN or infinite coordinates,
+/// vertex index out of range, box min > max), or nullptr if it is fine.
+const char *primitive_problem(const Geometry &geometry, size_t i);
+
+/// Checks the geometry and fills `input`. Throws Error(AACBVH_ERROR_INVALID_GEOMETRY)
+/// naming the first bad primitive, unless skip_invalid leaves bad ones out.
+void compute_build_input(const Geometry &geometry, bool skip_invalid, BuildContext &ctx, BuildInput &input);
+
+} // namespace aacbvh

@@ -1,0 +1,126 @@
+#include "build/flatten.h"
+
+#include <vector>
+
+namespace aacbvh {
+
+void choose_subtrees(const BinaryTree &tree, const FlattenRule &rule, BuildContext &ctx, SubtreeChoices &choices) {
+    const uint32_t n = tree.leaf_count();
+    choices.resize(n);
+    if (n < 2) return;
+    for (uint32_t k = 0; k < n; ++k) choices[k].prims = 0; // 0 = not decided yet
+    auto choice = [&](uint32_t id) { return tree.is_leaf(id) ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
+
+    // Post-order with an explicit stack: trees may be as deep as n.
+    std::vector<uint32_t> stack{tree.root};
+    uint32_t done = 0;
+    while (!stack.empty()) {
+        const uint32_t id = stack.back();
+        const uint32_t l = tree.left(id), r = tree.right(id);
+        if (!tree.is_leaf(l) && choices[l - n].prims == 0) { stack.push_back(l); continue; }
+        if (!tree.is_leaf(r) && choices[r - n].prims == 0) { stack.push_back(r); continue; }
+        stack.pop_back();
+        choices[id - n] = rule.inner(tree.boxes[id], choice(l), choice(r));
+        if ((++done & 0xFFFF) == 0) ctx.poll();
+    }
+}
+
+namespace {
+
+/// Lays out one sub-tree. A node at `pos` whose children pair starts at
+/// `below` puts its left child's descendants at below + 2 and its right
+/// child's after them, so positions follow from the leaf counts alone and
+/// large sub-trees can be laid out in parallel with the same result.
+class Emitter {
+public:
+    Emitter(const BinaryTree &tree, const SubtreeChoices &choices, BuildContext &ctx, Bvh &out)
+        : tree_(tree), choices_(choices), ctx_(ctx), out_(out), n_(tree.leaf_count()) {}
+
+    void emit(uint32_t id, uint32_t pos, uint32_t below, uint32_t prim, unsigned depth) {
+        // Large sub-trees near the top split into tasks; the rest, and any
+        // very deep chain, go through the explicit stack below.
+        while (depth < kParallelDepth && !tree_.is_leaf(id) && choices_[id - n_].leaves > 1 &&
+               choices_[id - n_].prims >= kParallelGrain) {
+            const uint32_t l = tree_.left(id), r = tree_.right(id);
+            set_inner(id, pos, below);
+            const uint32_t left_nodes = 2 * leaves(l) - 1;
+            ctx_.scheduler().fork_join(
+                [&] { emit(l, below, below + 2, prim, depth + 1); },
+                [&] { emit(r, below + 1, below + 2 + (left_nodes - 1), prim + prims(l), depth + 1); });
+            return;
+        }
+        emit_serial(id, pos, below, prim);
+    }
+
+private:
+    static constexpr unsigned kParallelDepth = 24;
+    static constexpr uint32_t kParallelGrain = 1u << 14;
+
+    uint32_t leaves(uint32_t id) const { return tree_.is_leaf(id) ? 1 : choices_[id - n_].leaves; }
+    uint32_t prims(uint32_t id) const { return tree_.is_leaf(id) ? 1 : choices_[id - n_].prims; }
+
+    void set_inner(uint32_t id, uint32_t pos, uint32_t below) {
+        Node &node = out_.nodes[pos];
+        node.box = tree_.boxes[id];
+        node.first = below;
+        node.count = 0;
+    }
+
+    void emit_serial(uint32_t root, uint32_t root_pos, uint32_t root_below, uint32_t root_prim) {
+        struct Item { uint32_t id, pos, below, prim; };
+        std::vector<Item> stack{{root, root_pos, root_below, root_prim}};
+        std::vector<uint32_t> gather;
+        while (!stack.empty()) {
+            const Item it = stack.back();
+            stack.pop_back();
+            if (leaves(it.id) == 1) {
+                Node &node = out_.nodes[it.pos];
+                node.box = tree_.boxes[it.id];
+                node.first = it.prim;
+                node.count = prims(it.id);
+                uint32_t slot = it.prim;
+                gather.push_back(it.id);
+                while (!gather.empty()) {
+                    const uint32_t g = gather.back();
+                    gather.pop_back();
+                    if (tree_.is_leaf(g)) {
+                        out_.prim_ids[slot++] = tree_.prim_ids[g];
+                    } else {
+                        gather.push_back(tree_.right(g));
+                        gather.push_back(tree_.left(g));
+                    }
+                }
+                continue;
+            }
+            const uint32_t l = tree_.left(it.id), r = tree_.right(it.id);
+            set_inner(it.id, it.pos, it.below);
+            const uint32_t left_nodes = 2 * leaves(l) - 1;
+            stack.push_back({r, it.below + 1, it.below + 2 + (left_nodes - 1), it.prim + prims(l)});
+            stack.push_back({l, it.below, it.below + 2, it.prim});
+        }
+    }
+
+    const BinaryTree &tree_;
+    const SubtreeChoices &choices_;
+    BuildContext &ctx_;
+    Bvh &out_;
+    uint32_t n_;
+};
+
+} // namespace
+
+double emit_bvh(const BinaryTree &tree, const FlattenRule &rule, const SubtreeChoices &choices, BuildContext &ctx,
+                Bvh &out) {
+    const uint32_t n = tree.leaf_count();
+    out.nodes.clear();
+    out.prim_ids.clear();
+    if (n == 0) return 0.0;
+    const SubtreeChoice root = tree.is_leaf(tree.root) ? rule.leaf(tree.boxes[tree.root]) : choices[tree.root - n];
+    out.nodes.resize(2 * size_t(root.leaves) - 1);
+    out.prim_ids.resize(n);
+    Emitter(tree, choices, ctx, out).emit(tree.root, 0, 1, 0, 0);
+    const double root_area = tree.boxes[tree.root].area();
+    return root_area > 0.0 ? root.cost / root_area : 0.0;
+}
+
+} // namespace aacbvh

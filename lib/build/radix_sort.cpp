@@ -1,0 +1,69 @@
+#include "build/radix_sort.h"
+
+#include <algorithm>
+#include <vector>
+
+namespace aacbvh {
+
+namespace {
+
+constexpr unsigned kDigitBits = 11;
+constexpr size_t kBuckets = size_t(1) << kDigitBits;
+constexpr size_t kMinChunk = 1u << 16;
+
+} // namespace
+
+void radix_sort_pairs(Array<uint64_t> &keys, Array<uint32_t> &values, unsigned key_bits, Scheduler &scheduler) {
+    const size_t n = keys.size();
+    if (n < 2) return;
+    const unsigned passes = (key_bits + kDigitBits - 1) / kDigitBits;
+    // Each chunk counts and scatters its own slice; the scatter of chunk c
+    // starts where chunks 0..c-1 of the same digit end, so the sort is stable
+    // and its result independent of the chunk count.
+    const size_t chunks = std::max<size_t>(1, std::min<size_t>(scheduler.thread_count() * 4, n / kMinChunk));
+    const size_t chunk_size = (n + chunks - 1) / chunks;
+
+    Array<uint64_t> keys_tmp(n);
+    Array<uint32_t> values_tmp(n);
+    std::vector<uint32_t> counts(chunks * kBuckets);
+    for (unsigned p = 0; p < passes; ++p) {
+        const unsigned shift = p * kDigitBits;
+        std::fill(counts.begin(), counts.end(), 0u);
+        scheduler.parallel_for(0, chunks, 1, [&](size_t c0, size_t c1) {
+            for (size_t c = c0; c < c1; ++c) {
+                uint32_t *count = &counts[c * kBuckets];
+                const size_t e = std::min(n, (c + 1) * chunk_size);
+                for (size_t i = c * chunk_size; i < e; ++i) ++count[(keys[i] >> shift) & (kBuckets - 1)];
+            }
+        });
+        // Skip a digit on which every key agrees.
+        const size_t first_digit = (keys[0] >> shift) & (kBuckets - 1);
+        size_t same = 0;
+        for (size_t c = 0; c < chunks; ++c) same += counts[c * kBuckets + first_digit];
+        if (same == n) continue;
+        // Exclusive prefix over (digit, chunk).
+        uint32_t sum = 0;
+        for (size_t d = 0; d < kBuckets; ++d)
+            for (size_t c = 0; c < chunks; ++c) {
+                const uint32_t k = counts[c * kBuckets + d];
+                counts[c * kBuckets + d] = sum;
+                sum += k;
+            }
+        scheduler.parallel_for(0, chunks, 1, [&](size_t c0, size_t c1) {
+            for (size_t c = c0; c < c1; ++c) {
+                uint32_t *offset = &counts[c * kBuckets];
+                const size_t e = std::min(n, (c + 1) * chunk_size);
+                for (size_t i = c * chunk_size; i < e; ++i) {
+                    const uint64_t k = keys[i];
+                    const uint32_t dst = offset[(k >> shift) & (kBuckets - 1)]++;
+                    keys_tmp[dst] = k;
+                    values_tmp[dst] = values[i];
+                }
+            }
+        });
+        keys.swap(keys_tmp);
+        values.swap(values_tmp);
+    }
+}
+
+} // namespace aacbvh

@@ -1,0 +1,58 @@
+#include "core/block_cache.h"
+
+#include <cstdlib>
+
+namespace aacbvh {
+
+void *BlockCache::take(size_t bytes) noexcept {
+    size_t best = count_;
+    for (size_t i = 0; i < count_; ++i) {
+        const size_t b = blocks_[i].bytes;
+        if (b >= bytes && b - bytes <= bytes / 8 && (best == count_ || b < blocks_[best].bytes)) best = i;
+    }
+    if (best == count_) return nullptr;
+    void *p = blocks_[best].pointer;
+    blocks_[best] = blocks_[--count_];
+    return p;
+}
+
+void BlockCache::keep(void *block, size_t bytes) noexcept {
+    if (count_ == kMaxBlocks) {
+        std::free(block);
+        return;
+    }
+    blocks_[count_++] = Block{block, bytes, false};
+}
+
+void BlockCache::release() noexcept {
+    for (size_t i = 0; i < count_; ++i) std::free(blocks_[i].pointer);
+    count_ = 0;
+}
+
+size_t BlockCache::bytes() const noexcept {
+    size_t sum = 0;
+    for (size_t i = 0; i < count_; ++i) sum += blocks_[i].bytes;
+    return sum;
+}
+
+void BlockCache::begin_build() noexcept {
+    for (size_t i = 0; i < count_; ++i) blocks_[i].old = true;
+}
+
+void BlockCache::end_build() noexcept {
+    size_t kept = 0;
+    for (size_t i = 0; i < count_; ++i) {
+        if (blocks_[i].old)
+            std::free(blocks_[i].pointer);
+        else
+            blocks_[kept++] = blocks_[i];
+    }
+    count_ = kept;
+}
+
+BlockCache *&BlockCache::current() noexcept {
+    static thread_local BlockCache *cache = nullptr;
+    return cache;
+}
+
+} // namespace aacbvh

@@ -1,0 +1,97 @@
+// What both traversals (binary and wide) share: which rays are valid, the
+// miss record, and the leaf-primitive tests for triangles and boxes. The
+// traversals hand the adapters a leaf slot (an index into Bvh::prim_ids);
+// each adapter finds that slot's primitive its own way.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "aacbvh/aacbvh.h"
+#include "core/geometry.h"
+#include "trace/ray_box.h"
+#include "trace/triangle_intersect.h"
+
+namespace aacbvh {
+
+/// A ray with a NaN field, an infinite origin or direction component, or a
+/// zero direction misses everything (an infinite tmax is normal use).
+inline bool ray_is_valid(const aacbvh_ray &ray) {
+    for (int k = 0; k < 3; ++k)
+        if (!std::isfinite(ray.org[k]) || !std::isfinite(ray.dir[k])) return false;
+    if (std::isnan(ray.tmin) || std::isnan(ray.tmax)) return false;
+    return ray.dir[0] != 0.0f || ray.dir[1] != 0.0f || ray.dir[2] != 0.0f;
+}
+
+inline void set_miss(aacbvh_hit &hit) {
+    hit.t = INFINITY;
+    hit.u = 0.0f;
+    hit.v = 0.0f;
+    hit.prim_id = AACBVH_INVALID_ID;
+}
+
+/// Leaf tests of triangle geometry: the watertight test on the caller's vertices.
+struct TrianglePrimitives {
+    const Geometry &geometry;
+    const uint32_t *prim_ids;
+    TriangleRay ray;
+
+    bool intersect(uint32_t slot, float tmin, float tmax, float &t, float &u, float &v) const {
+        const float *p[3];
+        geometry.triangle(prim_ids[slot], p);
+        return intersect_triangle(ray, p[0], p[1], p[2], tmin, tmax, t, u, v);
+    }
+};
+
+/// Leaf tests of triangle geometry from the BVH's own copy
+/// (AACBVH_TRIANGLES_COPIED): slot i's three vertices are the nine floats at
+/// triangles[9 i], so a leaf's triangles are contiguous. Same test, same
+/// vertices as TrianglePrimitives, hence the same results.
+struct CopiedTrianglePrimitives {
+    const float *triangles;
+    TriangleRay ray;
+
+    bool intersect(uint32_t slot, float tmin, float tmax, float &t, float &u, float &v) const {
+        const float *p = triangles + 9 * size_t(slot);
+        return intersect_triangle(ray, p, p + 3, p + 6, tmin, tmax, t, u, v);
+    }
+};
+
+/// Leaf tests of box geometry: t is where the ray enters the box (clamped to tmin).
+struct BoxPrimitives {
+    const Geometry &geometry;
+    const uint32_t *prim_ids;
+    const BoxRay &ray;
+
+    bool intersect(uint32_t slot, float tmin, float tmax, float &t, float &u, float &v) const {
+        const float *b = geometry.box_ptr(prim_ids[slot]);
+        u = 0.0f;
+        v = 0.0f;
+        return ray_box_primitive(ray, b, b + 3, tmin, tmax, t);
+    }
+};
+
+/// Calls visit(prims) with the leaf-test adapter that fits the geometry:
+/// boxes, the BVH's own triangle copy (when `triangles` is non-null), or the
+/// caller's triangles. Both traversals dispatch here.
+template <class Visit>
+bool with_primitives(const Geometry &geometry, const uint32_t *prim_ids, const float *triangles,
+                     const aacbvh_ray &ray, const BoxRay &box_ray, Visit &&visit) {
+    if (geometry.kind == GeometryKind::Boxes) return visit(BoxPrimitives{geometry, prim_ids, box_ray});
+    if (triangles) return visit(CopiedTrianglePrimitives{triangles, make_triangle_ray(ray.org, ray.dir)});
+    return visit(TrianglePrimitives{geometry, prim_ids, make_triangle_ray(ray.org, ray.dir)});
+}
+
+/// The closest-hit record at the end of a traversal.
+inline void write_closest(bool found, float t, float u, float v, uint32_t prim, aacbvh_hit &hit) {
+    if (!found) {
+        set_miss(hit);
+        return;
+    }
+    hit.t = t;
+    hit.u = u;
+    hit.v = v;
+    hit.prim_id = prim;
+}
+
+} // namespace aacbvh

@@ -1,0 +1,132 @@
+// Stack-based traversal of the binary BVH: both children's boxes are tested
+// together, the nearer is entered first and the farther pushed with its entry
+// distance, so that closest-hit queries skip it once a nearer hit is known.
+#include "trace/traversal.h"
+
+#include <cmath>
+#include <vector>
+
+#include "trace/ray_primitives.h"
+#include "trace/spill_stack.h"
+
+namespace aacbvh {
+
+namespace {
+
+/// (node, entry distance) pairs waiting to be visited.
+struct StackEntry {
+    uint32_t node;
+    float t;
+};
+using NodeStack = SpillStack<StackEntry, 64>;
+
+/// Closest hit (AnyHit false) or any hit (AnyHit true) of a valid ray over a
+/// non-empty tree. Returns whether something was hit; hit is filled for the
+/// closest-hit query only.
+///
+/// Counters: nodes_visited counts the nodes whose box was tested (the root,
+/// then both children of every inner node entered); primitive_tests counts
+/// every primitive test of every leaf entered.
+template <bool AnyHit, class Primitives>
+bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, float tmin,
+              float tmax, aacbvh_hit &hit, TraversalCounters *counters) {
+    const Node *nodes = bvh.nodes.data();
+    const uint32_t *prim_ids = bvh.prim_ids.data();
+    uint64_t boxes_tested = 1, prims_tested = 0;
+    bool found = false;
+    float best_u = 0.0f, best_v = 0.0f;
+    uint32_t best_prim = AACBVH_INVALID_ID;
+
+    float t_root;
+    if (ray_box_conservative(box_ray, nodes[0].box, tmin, tmax, t_root)) {
+        NodeStack stack;
+        uint32_t current = 0;
+        for (;;) {
+            const Node &node = nodes[current];
+            if (!node.is_leaf()) {
+                const Node &left = nodes[node.first];
+                const Node &right = nodes[node.first + 1];
+                float tl, tr;
+                const unsigned hits =
+                    ray_box_pair_conservative(box_ray, left.box, right.box, tmin, tmax, tl, tr);
+                const bool hit_l = (hits & 1u) != 0, hit_r = (hits & 2u) != 0;
+                boxes_tested += 2;
+                if (hit_l && hit_r) {
+                    if (tr < tl) {
+                        stack.push({node.first, tl});
+                        current = node.first + 1;
+                    } else {
+                        stack.push({node.first + 1, tr});
+                        current = node.first;
+                    }
+                    continue;
+                }
+                if (hit_l) { current = node.first; continue; }
+                if (hit_r) { current = node.first + 1; continue; }
+            } else {
+                prims_tested += node.count;
+                const uint32_t end = node.first + node.count;
+                for (uint32_t i = node.first; i < end; ++i) {
+                    float t, u, v;
+                    if (prims.intersect(i, tmin, tmax, t, u, v)) {
+                        found = true;
+                        if (AnyHit) break;
+                        tmax = t;
+                        best_u = u;
+                        best_v = v;
+                        best_prim = prim_ids[i];
+                    }
+                }
+                if (AnyHit && found) break;
+            }
+            // Next: the nearest pending node still in reach of the closest hit.
+            bool next = false;
+            while (!stack.empty()) {
+                const StackEntry e = stack.pop();
+                // The entry distance is rounded and may land a few ulps past a
+                // hit inside the box: widen as the box test widens its exit.
+                if (e.t <= tmax + std::fabs(tmax) * kTwoGamma3) {
+                    current = e.node;
+                    next = true;
+                    break;
+                }
+            }
+            if (!next) break;
+        }
+    }
+
+    if (counters) {
+        counters->nodes_visited += boxes_tested;
+        counters->primitive_tests += prims_tested;
+    }
+    if (!AnyHit) write_closest(found, tmax, best_u, best_v, best_prim, hit);
+    return found;
+}
+
+template <bool AnyHit>
+bool query(const Bvh &bvh, const Geometry &geometry, const float *triangles, const aacbvh_ray &ray,
+           aacbvh_hit &hit, TraversalCounters *counters) {
+    if (bvh.empty() || geometry.kind == GeometryKind::None || !ray_is_valid(ray)) {
+        set_miss(hit);
+        return false;
+    }
+    const BoxRay box_ray = make_box_ray(ray.org, ray.dir);
+    return with_primitives(geometry, bvh.prim_ids.data(), triangles, ray, box_ray, [&](const auto &prims) {
+        return traverse<AnyHit>(bvh, prims, box_ray, ray.tmin, ray.tmax, hit, counters);
+    });
+}
+
+} // namespace
+
+void intersect_ray(const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray, aacbvh_hit &hit,
+                   TraversalCounters *counters, const float *triangles) {
+    query<false>(bvh, geometry, triangles, ray, hit, counters);
+}
+
+bool occluded_ray(const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
+                  TraversalCounters *counters, const float *triangles) {
+    aacbvh_hit unused;
+    return query<true>(bvh, geometry, triangles, ray, unused, counters);
+}
+
+} // namespace aacbvh
