@@ -258,8 +258,9 @@ void BvhObject::stats(aacbvh_stats &out) const {
     out.leaf_count = f.leaf_count;
     out.primitive_count = bvh_.prim_ids.size();
     out.sah_cost = f.areas.sah_cost(params.traversal_cost, params.intersection_cost);
+    out.kept_build_bytes = kept_build_bytes();
     out.memory_bytes = sizeof(*this) + bvh_.memory_bytes() + wide_.memory_bytes() +
-                       triangles_.capacity() * sizeof(float);
+                       held_bytes(triangles_) + out.kept_build_bytes;
     out.invalid_primitive_count = invalid_count_;
     out.build_peak_bytes = build_peak_bytes_;
     out.built_sah_cost = built_sah_cost_;

@@ -54,7 +54,7 @@ int header_c99_usage(const float *xyz, const uint32_t *indices, size_t vertex_co
                      size_t triangle_count) {
     aacbvh_context *ctx = NULL;
     aacbvh_bvh *bvh = NULL;
-    aacbvh_stats stats = {sizeof(aacbvh_stats), 0, 0, 0, 0, 0.0, 0, 0, 0, 0.0, 0.0};
+    aacbvh_stats stats = {sizeof(aacbvh_stats), 0, 0, 0, 0, 0.0, 0, 0, 0, 0.0, 0.0, 0};
     aacbvh_ray ray = {{0.0f, 0.0f, 0.0f}, 0.0f, {0.0f, 0.0f, 1.0f}, 1e30f};
     aacbvh_hit hit;
     aacbvh_progress_fn fn = progress;

@@ -75,8 +75,13 @@ static void expect_fresh_tree(const setup *s, const aacbvh_bvh *kept, const ts_m
         fail_msg("builder %d layout %d storage %d: the rebuild with kept memory differs from a fresh build "
                  "(%zu vs %zu nodes)",
                  (int)s->builder, (int)s->layout, (int)s->storage, a.node_count, b.node_count);
-    assert_true(a.stats.build_peak_bytes == b.stats.build_peak_bytes);
-    assert_true(a.stats.memory_bytes == b.stats.memory_bytes);
+    /* The peak counts each thread's combine scratch, which depends on which
+     * thread runs which combine: equal up to a few scratch matrices. */
+    assert_true(a.stats.build_peak_bytes <= b.stats.build_peak_bytes + b.stats.build_peak_bytes / 4);
+    assert_true(b.stats.build_peak_bytes <= a.stats.build_peak_bytes + a.stats.build_peak_bytes / 4);
+    /* memory_bytes counts the kept blocks too, and says how much of it they are. */
+    assert_true(b.stats.kept_build_bytes == 0);
+    assert_true(a.stats.memory_bytes == b.stats.memory_bytes + a.stats.kept_build_bytes);
     if (!ts_check_tree(kept, boxes, m->triangle_count, NULL, 4, msg, sizeof msg)) fail_msg("%s", msg);
     ts_tree_free(&a);
     ts_tree_free(&b);
@@ -106,6 +111,17 @@ static void test_rebuilds_match_fresh_builds(void **state) {
             set_mesh(kept, &meshes[i]);
             TS_EXPECT_STATUS(aacbvh_bvh_build(kept), AACBVH_OK);
             expect_fresh_tree(&setups[si], kept, &meshes[i]);
+        }
+        {
+            /* The last build's freed scratch and the replaced tree stay, counted. */
+            aacbvh_stats stats;
+            stats.struct_size = sizeof stats;
+            TS_EXPECT_STATUS(aacbvh_bvh_get_stats(kept, &stats), AACBVH_OK);
+            assert_true(stats.kept_build_bytes >= ((uint64_t)2 << 20));
+            assert_true(stats.memory_bytes > stats.kept_build_bytes);
+            TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(kept, AACBVH_PARAM_KEEP_BUILD_MEMORY, 0), AACBVH_OK);
+            TS_EXPECT_STATUS(aacbvh_bvh_get_stats(kept, &stats), AACBVH_OK);
+            assert_true(stats.kept_build_bytes == 0);
         }
         aacbvh_bvh_destroy(kept);
     }

@@ -24,7 +24,7 @@
     X(offsetof(aacbvh_hit, u) == 4)                                  \
     X(offsetof(aacbvh_hit, v) == 8)                                  \
     X(offsetof(aacbvh_hit, prim_id) == 12)                           \
-    X(sizeof(aacbvh_stats) == 80)                                    \
+    X(sizeof(aacbvh_stats) == 88)                                    \
     X(offsetof(aacbvh_stats, struct_size) == 0)                      \
     X(offsetof(aacbvh_stats, max_depth) == 4)                        \
     X(offsetof(aacbvh_stats, node_count) == 8)                       \
@@ -36,6 +36,7 @@
     X(offsetof(aacbvh_stats, build_peak_bytes) == 56)                \
     X(offsetof(aacbvh_stats, built_sah_cost) == 64)                  \
     X(offsetof(aacbvh_stats, build_seconds) == 72)                   \
+    X(offsetof(aacbvh_stats, kept_build_bytes) == 80)                \
     X(sizeof(aacbvh_status) == 4)                                    \
     X(sizeof(aacbvh_builder) == 4)                                   \
     X(sizeof(aacbvh_param) == 4)                                     \

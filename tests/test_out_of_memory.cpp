@@ -444,6 +444,58 @@ void test_queries(void **) {
     }
 }
 
+/// Destroying every handle gives back everything the library allocated:
+/// objects and small arrays (operator new, counted above) and big build
+/// blocks (aacbvh::testing::system_block_bytes), after builds on two threads
+/// with large combines (AAC delta 1024: 4 MB distance matrices) and kept
+/// build memory. Combine scratch once stayed with each thread after its
+/// build; it belongs to the build now.
+void test_destroy_releases_everything(void **) {
+    std::vector<float> vertices;
+    std::vector<uint32_t> indices;
+    uint64_t x = 0x9E3779B97F4A7C15ull;
+    auto next = [&x] {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        return float(x >> 40) / float(1 << 24);
+    };
+    const size_t n = 120000;
+    for (size_t t = 0; t < n; ++t) {
+        const float c[3] = {next(), next(), next()};
+        for (int j = 0; j < 3; ++j) {
+            for (int k = 0; k < 3; ++k) vertices.push_back(c[k] + next() * 0.01f);
+            indices.push_back(uint32_t(3 * t + j));
+        }
+    }
+    const int64_t blocks_before = g_live_blocks.load();
+    const int64_t system_before = aacbvh::testing::system_block_bytes.load();
+    aacbvh_context *ctx = nullptr;
+    aacbvh_bvh *bvh = nullptr;
+    assert_int_equal(aacbvh_context_create(2, &ctx), AACBVH_OK);
+    assert_int_equal(aacbvh_bvh_create(ctx, &bvh), AACBVH_OK);
+    assert_int_equal(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_KEEP_BUILD_MEMORY, 1), AACBVH_OK);
+    assert_int_equal(aacbvh_bvh_set_triangles(bvh, vertices.data(), vertices.size() / 3, 12, indices.data(), n),
+                     AACBVH_OK);
+    assert_int_equal(aacbvh_bvh_build(bvh), AACBVH_OK);
+    assert_int_equal(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_AAC_DELTA, 1024), AACBVH_OK);
+    assert_int_equal(aacbvh_bvh_build(bvh), AACBVH_OK);
+    aacbvh_stats stats;
+    stats.struct_size = sizeof stats;
+    assert_int_equal(aacbvh_bvh_get_stats(bvh, &stats), AACBVH_OK);
+    // Everything held now is the handle's, and memory_bytes says so.
+    const int64_t system_held = aacbvh::testing::system_block_bytes.load() - system_before;
+    if (system_held > int64_t(stats.memory_bytes))
+        fail_msg("%lld bytes of big blocks held, memory_bytes says %llu", (long long)system_held,
+                 (unsigned long long)stats.memory_bytes);
+    assert_true(stats.kept_build_bytes > 0);
+    aacbvh_bvh_destroy(bvh);
+    aacbvh_context_destroy(ctx);
+    assert_int_equal(aacbvh::testing::system_block_bytes.load(), system_before);
+    if (g_live_blocks.load() != blocks_before)
+        fail_msg("%lld blocks still held after destroy", (long long)(g_live_blocks.load() - blocks_before));
+}
+
 void test_summary(void **) { std::printf("%zu allocation failures injected in all\n", g_points); }
 
 } // namespace
@@ -452,7 +504,8 @@ int main() {
     const CMUnitTest tests[] = {
         cmocka_unit_test(test_create),     cmocka_unit_test(test_set_geometry),
         cmocka_unit_test(test_fresh_build), cmocka_unit_test(test_rebuild_keeps_tree),
-        cmocka_unit_test(test_queries),    cmocka_unit_test(test_summary),
+        cmocka_unit_test(test_queries),    cmocka_unit_test(test_destroy_releases_everything),
+        cmocka_unit_test(test_summary),
     };
     for (uint32_t t = 0; t < 2; ++t)
         if (aacbvh_context_create(t + 1, &g_contexts[t]) != AACBVH_OK) return 1;

@@ -93,6 +93,7 @@ class Stats(ctypes.Structure):
         ("build_peak_bytes", ctypes.c_uint64),
         ("built_sah_cost", ctypes.c_double),
         ("build_seconds", ctypes.c_double),
+        ("kept_build_bytes", ctypes.c_uint64),
     ]
 
     def as_dict(self):
@@ -138,7 +139,7 @@ class Hit(ctypes.Structure):
         return self.prim_id != INVALID_ID
 
 
-for _struct, _size in ((Stats, 80), (Node, 32), (Ray, 32), (Hit, 16)):
+for _struct, _size in ((Stats, 88), (Node, 32), (Ray, 32), (Hit, 16)):
     assert ctypes.sizeof(_struct) == _size, (_struct.__name__, ctypes.sizeof(_struct))
 
 #: The progress callback's C type: bool (*)(void *user_data, double fraction_done).

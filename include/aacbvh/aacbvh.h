@@ -332,11 +332,13 @@ typedef struct aacbvh_stats {
     uint64_t leaf_count;
     uint64_t primitive_count;      /**< primitives in the tree */
     double sah_cost;               /**< (Ct * sum A(inner) + Ci * sum A(leaf) N(leaf)) / A(root), costs in force now; 0 if A(root) = 0 */
-    uint64_t memory_bytes;         /**< every byte the BVH handle holds */
+    uint64_t memory_bytes;         /**< every byte the BVH handle holds: tree, traversal layout, triangle copy, kept build memory */
     uint64_t invalid_primitive_count; /**< primitives left out by AACBVH_PARAM_SKIP_INVALID_PRIMITIVES */
     uint64_t build_peak_bytes;     /**< most bytes the last build held at once, the finished tree included */
     double built_sah_cost;         /**< sah_cost right after the last build, before any refit */
     double build_seconds;          /**< wall time of the last successful build */
+    /* Since 1.1.0: */
+    uint64_t kept_build_bytes;     /**< of memory_bytes, the blocks kept for the next build (AACBVH_PARAM_KEEP_BUILD_MEMORY); 0 without it */
 } aacbvh_stats;
 
 /**

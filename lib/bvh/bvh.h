@@ -16,7 +16,7 @@ struct Bvh {
 
     bool empty() const { return nodes.empty(); }
     size_t memory_bytes() const {
-        return nodes.capacity() * sizeof(Node) + prim_ids.capacity() * sizeof(uint32_t);
+        return held_bytes(nodes) + held_bytes(prim_ids);
     }
 };
 

@@ -59,7 +59,7 @@ public:
     void clear();
 
     size_t memory_bytes() const {
-        return nodes_.capacity() * sizeof(WideNode) + sources_.capacity() * sizeof(uint32_t);
+        return held_bytes(nodes_) + held_bytes(sources_);
     }
 
 private:

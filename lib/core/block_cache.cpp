@@ -2,6 +2,8 @@
 
 #include <cstdlib>
 
+#include "core/memory.h"
+
 namespace aacbvh {
 
 void *BlockCache::take(size_t bytes) noexcept {
@@ -18,14 +20,14 @@ void *BlockCache::take(size_t bytes) noexcept {
 
 void BlockCache::keep(void *block, size_t bytes) noexcept {
     if (count_ == kMaxBlocks) {
-        std::free(block);
+        free_system_block(block, bytes);
         return;
     }
     blocks_[count_++] = Block{block, bytes, false};
 }
 
 void BlockCache::release() noexcept {
-    for (size_t i = 0; i < count_; ++i) std::free(blocks_[i].pointer);
+    for (size_t i = 0; i < count_; ++i) free_system_block(blocks_[i].pointer, blocks_[i].bytes);
     count_ = 0;
 }
 
@@ -43,7 +45,7 @@ void BlockCache::end_build() noexcept {
     size_t kept = 0;
     for (size_t i = 0; i < count_; ++i) {
         if (blocks_[i].old)
-            std::free(blocks_[i].pointer);
+            free_system_block(blocks_[i].pointer, blocks_[i].bytes);
         else
             blocks_[kept++] = blocks_[i];
     }

@@ -4,6 +4,7 @@ namespace aacbvh {
 namespace testing {
 
 std::atomic<int64_t> alloc_fail_countdown{0};
+std::atomic<int64_t> system_block_bytes{0};
 
 bool take_injected_failure() noexcept {
     int64_t left = alloc_fail_countdown.load(std::memory_order_relaxed);

@@ -40,6 +40,13 @@ extern std::atomic<int64_t> alloc_fail_countdown;
 /// The armed path of check_allocation(): true when this allocation must fail.
 bool take_injected_failure() noexcept;
 
+/// Bytes of big blocks (2 MiB and more) that the build allocator holds from
+/// the system: in use or kept by a BlockCache. Tests read it to check that
+/// destroying every handle gives everything back.
+extern std::atomic<int64_t> system_block_bytes;
+
+inline void count_system_block(int64_t bytes) { system_block_bytes.fetch_add(bytes, std::memory_order_relaxed); }
+
 /// Throws std::bad_alloc when an injected failure is due.
 inline void check_allocation() {
     if (alloc_fail_countdown.load(std::memory_order_relaxed) != 0 && take_injected_failure())
@@ -48,26 +55,33 @@ inline void check_allocation() {
 
 } // namespace testing
 
-/// Bytes of build arrays alive on one thread, and their peak: a build installs
-/// one on its calling thread (MemoryMeter::Scope) to report its peak memory.
-/// Arrays allocated by worker threads are not counted: the builders allocate
-/// their arrays on the calling thread and let tasks fill them.
+/// Bytes of build arrays alive during one build, and their peak: a build
+/// installs one on its calling thread (MemoryMeter::Scope) to report its peak
+/// memory. Worker threads are counted where a builder installs the build's
+/// meter on them too (the AAC combine scratch does); the counters are atomic
+/// for that. Arrays allocated by worker threads outside such a scope are not
+/// counted: the builders allocate their arrays on the calling thread and let
+/// tasks fill them.
 class MemoryMeter {
 public:
     void add(int64_t bytes) {
-        live_ += bytes;
-        if (live_ > peak_) peak_ = live_;
+        const int64_t live = live_.fetch_add(bytes, std::memory_order_relaxed) + bytes;
+        int64_t peak = peak_.load(std::memory_order_relaxed);
+        while (live > peak && !peak_.compare_exchange_weak(peak, live, std::memory_order_relaxed)) {
+        }
     }
-    int64_t peak() const { return peak_; }
+    int64_t peak() const { return peak_.load(std::memory_order_relaxed); }
+    int64_t live() const { return live_.load(std::memory_order_relaxed); }
 
     static MemoryMeter *&current() {
         static thread_local MemoryMeter *meter = nullptr;
         return meter;
     }
-    /// Installs a meter on this thread for the scope's lifetime.
+    /// Installs a meter (or none, with nullptr) on this thread for the scope's lifetime.
     class Scope {
     public:
-        explicit Scope(MemoryMeter &m) : previous_(current()) { current() = &m; }
+        explicit Scope(MemoryMeter *m) : previous_(current()) { current() = m; }
+        explicit Scope(MemoryMeter &m) : Scope(&m) {}
         ~Scope() { current() = previous_; }
         Scope(const Scope &) = delete;
         Scope &operator=(const Scope &) = delete;
@@ -77,8 +91,8 @@ public:
     };
 
 private:
-    int64_t live_ = 0;
-    int64_t peak_ = 0;
+    std::atomic<int64_t> live_{0};
+    std::atomic<int64_t> peak_{0};
 };
 
 constexpr size_t kHugePageBytes = size_t(1) << 21;
@@ -86,6 +100,12 @@ constexpr size_t kHugePageBytes = size_t(1) << 21;
 /// Over-aligned element types (such as 64-byte wide nodes) get their
 /// alignment in small blocks too; big blocks are 2 MiB aligned anyway.
 inline bool over_aligned(size_t align) { return align > __STDCPP_DEFAULT_NEW_ALIGNMENT__; }
+
+/// Returns a big block to the system.
+inline void free_system_block(void *p, size_t rounded_bytes) noexcept {
+    testing::count_system_block(-int64_t(rounded_bytes));
+    std::free(p);
+}
 
 inline void *allocate_build_memory(size_t bytes, size_t align = alignof(std::max_align_t)) {
     testing::check_allocation();
@@ -97,6 +117,7 @@ inline void *allocate_build_memory(size_t bytes, size_t align = alignof(std::max
         if (void *kept = cache->take(rounded)) return kept;
     void *p = std::aligned_alloc(kHugePageBytes, rounded);
     if (!p) throw std::bad_alloc();
+    testing::count_system_block(int64_t(rounded));
 #ifdef MADV_HUGEPAGE
     madvise(p, rounded, MADV_HUGEPAGE); // advice only: failure is harmless
 #endif
@@ -113,7 +134,7 @@ inline void free_build_memory(void *p, size_t bytes, size_t align = alignof(std:
     else if (BlockCache *cache = BlockCache::current())
         cache->keep(p, (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1));
     else
-        std::free(p);
+        free_system_block(p, (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1));
 }
 
 template <class T> struct BuildAllocator {
@@ -139,5 +160,12 @@ template <class T> struct BuildAllocator {
 
 /// A std::vector whose resize() does not zero and whose big blocks use huge pages.
 template <class T> using Array = std::vector<T, BuildAllocator<T>>;
+
+/// Bytes an Array holds from the system: its capacity, rounded up to the
+/// 2 MiB granularity of big blocks. What memory_bytes reports.
+template <class T> size_t held_bytes(const Array<T> &a) {
+    const size_t bytes = a.capacity() * sizeof(T);
+    return bytes < kHugePageBytes ? bytes : (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
+}
 
 } // namespace aacbvh

@@ -37,7 +37,7 @@ public:
     AacRecursion(const AacConfig &config, const FlattenRule &rule, BuildContext &ctx, BinaryTree &tree,
                  SubtreeChoices &choices, const uint64_t *codes, float scale)
         : config_(config), rule_(rule), ctx_(ctx), tree_(tree), choices_(choices.data()), codes_(codes), scale_(scale),
-          n_(tree.leaf_count()), clusters_(n_), free_ids_(n_) {
+          n_(tree.leaf_count()), clusters_(n_), free_ids_(n_), scratch_(MemoryMeter::current()) {
         // f(n) of the many small nodes comes from a table instead of pow().
         small_targets_.resize(std::min<uint32_t>(n_, kTargetTableSize) + 1);
         for (uint32_t i = 0; i < small_targets_.size(); ++i) small_targets_[i] = aac_cluster_target(config_, i);
@@ -58,9 +58,8 @@ private:
                 clusters_[b + i] = b + i;
                 free_ids_[b + i] = n_ + b + i;
             }
-            thread_local CombineScratch scratch;
-            return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n,
-                                    root ? 1 : target(config_.delta), scale_, rule_, choices_, scratch, ctx_);
+            return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n, root ? 1 : target(config_.delta), scale_,
+                                    rule_, choices_, scratch_, ctx_);
         }
         if (n >= 256) ctx_.poll();
         const uint32_t m = split_point(b, e);
@@ -75,9 +74,8 @@ private:
         // The right half's clusters and free ids move next to the left half's.
         std::copy(&clusters_[m], &clusters_[m] + right, &clusters_[b + left]);
         std::copy(&free_ids_[m], &free_ids_[m] + right, &free_ids_[b + left]);
-        thread_local CombineScratch scratch;
-        return combine_clusters(tree_, &clusters_[b], &free_ids_[b], left + right,
-                                root ? 1 : target(n), scale_, rule_, choices_, scratch, ctx_);
+        return combine_clusters(tree_, &clusters_[b], &free_ids_[b], left + right, root ? 1 : target(n), scale_, rule_,
+                                choices_, scratch_, ctx_);
     }
 
     /// The radix-tree split: first index whose code has the highest differing bit set.
@@ -106,6 +104,7 @@ private:
     Array<uint32_t> clusters_;
     Array<uint32_t> free_ids_;
     std::vector<uint32_t> small_targets_;
+    CombineScratchPool scratch_;
 };
 
 } // namespace

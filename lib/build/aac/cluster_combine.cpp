@@ -1,6 +1,7 @@
 #include "build/aac/cluster_combine.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cfloat>
 #include <cmath>
 
@@ -14,6 +15,11 @@
 namespace aacbvh {
 
 namespace {
+
+uint64_t next_pool_id() {
+    static std::atomic<uint64_t> next{1};
+    return next.fetch_add(1, std::memory_order_relaxed);
+}
 
 /// Above this many clusters the pairwise matrix (count^2 floats) is not kept;
 /// rows are recomputed when needed instead (exact-clustering settings reach this).
@@ -291,13 +297,33 @@ uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint
 
 } // namespace
 
+CombineScratchPool::CombineScratchPool(MemoryMeter *meter) : id_(next_pool_id()), meter_(meter) {}
+
+CombineScratch &CombineScratchPool::local() {
+    // Pools are short-lived and threads long-lived: each thread remembers its
+    // scratch in the last pool it used, the common case in one build.
+    struct Cached {
+        uint64_t pool = 0;
+        CombineScratch *scratch = nullptr;
+    };
+    static thread_local Cached cached;
+    if (cached.pool == id_) return *cached.scratch;
+    std::lock_guard<std::mutex> lock(mutex_);
+    slots_.push_back(std::make_unique<CombineScratch>());
+    slots_.back()->meter = meter_;
+    cached = Cached{id_, slots_.back().get()};
+    return *cached.scratch;
+}
+
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                          float scale, const FlattenRule &rule, SubtreeChoice *choices, CombineScratch &scratch,
+                          float scale, const FlattenRule &rule, SubtreeChoice *choices, CombineScratchPool &scratch_pool,
                           BuildContext &ctx) {
     if (target < 1) target = 1;
     if (count <= target) return count;
     if (count <= kSmallLimit) return combine_small(tree, ids, free_ids, count, target, scale, rule, choices);
+    CombineScratch &scratch = scratch_pool.local();
     const uint32_t stride = padded(count + 1);
+    const MemoryMeter::Scope metered(scratch.meter); // growth counts in the build's peak
     if (scratch.columns.size() < 6 * size_t(stride)) scratch.columns.resize(6 * size_t(stride));
     if (scratch.nearest.size() < count) {
         scratch.nearest_distance.resize(count);

@@ -4,22 +4,51 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 #include "build/binary_tree.h"
 #include "build/build_context.h"
 #include "build/flatten.h"
+#include "core/memory.h"
 #include "core/box.h"
 
 namespace aacbvh {
 
-/// Scratch memory reused across calls (one per thread) so the hot path does not allocate.
+/// Scratch memory of the large combines, reused from one call to the next so
+/// that the hot path does not allocate. Each belongs to one build and one
+/// thread (CombineScratchPool): a build started from a progress callback, or
+/// another build that the thread helps with, never touches it. The arrays come
+/// from the build allocator, so they count in the build's peak (`meter` is
+/// installed while they grow, also on worker threads) and are freed, or kept
+/// with AACBVH_PARAM_KEEP_BUILD_MEMORY, with the build's other memory.
 struct CombineScratch {
-    std::vector<float> columns;          ///< 6 coordinate columns of the live clusters' boxes
-    std::vector<float> distances;        ///< pairwise matrix, row-major, stride = padded count
-    std::vector<float> nearest_distance;
-    std::vector<uint32_t> nearest;
-    std::vector<uint32_t> rescan;        ///< slots whose nearest neighbour must be found again
+    Array<float> columns;          ///< 6 coordinate columns of the live clusters' boxes
+    Array<float> distances;        ///< pairwise matrix, row-major, stride = padded count
+    Array<float> nearest_distance;
+    Array<uint32_t> nearest;
+    Array<uint32_t> rescan;        ///< slots whose nearest neighbour must be found again
+    MemoryMeter *meter = nullptr;  ///< the build's meter
+};
+
+/// One build's combine scratch: one CombineScratch per thread that runs a
+/// combine of that build, made on first use and freed with the pool.
+class CombineScratchPool {
+public:
+    /// meter: the build's (MemoryMeter::current() of the building thread).
+    explicit CombineScratchPool(MemoryMeter *meter);
+    CombineScratchPool(const CombineScratchPool &) = delete;
+    CombineScratchPool &operator=(const CombineScratchPool &) = delete;
+
+    /// The calling thread's scratch in this pool.
+    CombineScratch &local();
+
+private:
+    const uint64_t id_; ///< unique over the process's life, so a thread's cache never mistakes pools
+    MemoryMeter *meter_;
+    std::mutex mutex_;
+    std::vector<std::unique_ptr<CombineScratch>> slots_;
 };
 
 /// Merges clusters ids[0, count) of `tree` (leaf or inner node ids whose boxes
@@ -30,9 +59,10 @@ struct CombineScratch {
 /// Ties go to the lowest slot, so results are deterministic. Long combines
 /// (thousands of clusters) poll `ctx` for a cancel. Each new node's
 /// flattening decision is made at once (its sub-tree is complete): choices
-/// are indexed by id - leaf count.
+/// are indexed by id - leaf count. Combines of more than a handful of
+/// clusters use the calling thread's scratch from the build's `scratch_pool`.
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                          float scale, const FlattenRule &rule, SubtreeChoice *choices, CombineScratch &scratch,
+                          float scale, const FlattenRule &rule, SubtreeChoice *choices, CombineScratchPool &scratch_pool,
                           BuildContext &ctx);
 
 } // namespace aacbvh
