@@ -26,8 +26,10 @@ namespace {
 
 [[noreturn]] void reject(const std::string &what) { throw Error(AACBVH_ERROR_INVALID_ARGUMENT, what); }
 
-/// Largest primitive count: ids are 32-bit and AACBVH_INVALID_ID is reserved.
-constexpr size_t kMaxPrimitives = size_t(std::numeric_limits<uint32_t>::max()) - 1;
+/// Largest primitive count: the builders' binary trees number their 2n - 1
+/// nodes with 32-bit ids, so 2n - 1 must stay below 2^32.
+constexpr size_t kMaxPrimitives = AACBVH_MAX_PRIMITIVES;
+static_assert(2 * uint64_t(kMaxPrimitives) - 1 < (uint64_t(1) << 32), "node ids must fit 32 bits");
 
 void check_stride(size_t stride, size_t minimum, const char *what) {
     if (stride < minimum || stride % 4 != 0)
@@ -45,7 +47,8 @@ void BvhObject::replace_geometry(const Geometry &g) {
 
 void BvhObject::set_triangles(const float *vertices, size_t vertex_count, size_t vertex_stride,
                               const uint32_t *indices, size_t triangle_count) {
-    if (triangle_count > kMaxPrimitives) reject("triangle count " + std::to_string(triangle_count) + " exceeds 2^32 - 2");
+    if (triangle_count > kMaxPrimitives) reject("triangle count " + std::to_string(triangle_count) +
+                                                    " exceeds AACBVH_MAX_PRIMITIVES (2^31 - 1)");
     if (vertex_count > (size_t(1) << 32)) reject("vertex count exceeds 2^32");
     if (triangle_count > 0 && vertex_count == 0) reject("triangles need vertices: vertex_count is 0");
     if (!vertices && vertex_count > 0) reject("vertices is NULL but vertex_count is " + std::to_string(vertex_count));
@@ -66,7 +69,7 @@ void BvhObject::set_triangles(const float *vertices, size_t vertex_count, size_t
 }
 
 void BvhObject::set_boxes(const float *boxes, size_t box_count, size_t stride) {
-    if (box_count > kMaxPrimitives) reject("box count " + std::to_string(box_count) + " exceeds 2^32 - 2");
+    if (box_count > kMaxPrimitives) reject("box count " + std::to_string(box_count) + " exceeds AACBVH_MAX_PRIMITIVES (2^31 - 1)");
     if (!boxes && box_count > 0) reject("boxes is NULL but box_count is " + std::to_string(box_count));
     if (box_count > 0) check_stride(stride, 6 * sizeof(float), "box");
     if (box_count > 0 && stride > std::numeric_limits<size_t>::max() / box_count) reject("box_count * stride overflows");

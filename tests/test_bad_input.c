@@ -5,7 +5,7 @@
  *     build (and refit) return AACBVH_ERROR_INVALID_GEOMETRY with a message
  *     naming the first offending primitive ("triangle 17"), also when the bad
  *     primitives lie in different parallel chunks;
- *   - counts that overflow or exceed 2^32 - 2, vertex_count * stride that
+ *   - counts that overflow or exceed AACBVH_MAX_PRIMITIVES, vertex_count * stride that
  *     overflows, strides that are too small or not a multiple of 4, NULL
  *     buffers with nonzero counts: AACBVH_ERROR_INVALID_ARGUMENT with a
  *     message, and the call changes nothing.
@@ -171,8 +171,10 @@ static void test_counts_that_overflow(void **state) {
     const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
     const uint32_t idx[3] = {0, 1, 2};
     aacbvh_bvh *bvh = new_bvh();
+    /* Node ids are 32-bit over 2n - 1 nodes: at most 2^31 - 1 primitives. */
     const size_t huge_counts[] = {SIZE_MAX, SIZE_MAX / 3 + 1, SIZE_MAX / 12 + 1, (size_t)UINT32_MAX,
-                                  (size_t)UINT32_MAX + 1};
+                                  (size_t)UINT32_MAX + 1, (size_t)UINT32_MAX - 1, (size_t)1 << 31,
+                                  (size_t)AACBVH_MAX_PRIMITIVES + 1};
     for (size_t i = 0; i < sizeof huge_counts / sizeof huge_counts[0]; ++i) {
         EXPECT_MESSAGE(bvh, aacbvh_bvh_set_triangles(bvh, v, 3, 12, idx, huge_counts[i]),
                        AACBVH_ERROR_INVALID_ARGUMENT, "count");
@@ -193,7 +195,9 @@ static void test_counts_that_overflow(void **state) {
     EXPECT_MESSAGE(bvh, aacbvh_bvh_set_boxes(bvh, v, 3, SIZE_MAX & ~(size_t)3), AACBVH_ERROR_INVALID_ARGUMENT,
                    "overflow");
     /* The largest accepted count still sets (nothing is read until build). */
-    TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(bvh, v, (size_t)UINT32_MAX - 1, 24), AACBVH_OK);
+    assert_true(AACBVH_MAX_PRIMITIVES == 0x7FFFFFFFu);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(bvh, v, AACBVH_MAX_PRIMITIVES, 24), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_triangles(bvh, v, 3, 12, idx, AACBVH_MAX_PRIMITIVES), AACBVH_OK);
     TS_EXPECT_STATUS(aacbvh_bvh_set_triangles(bvh, v, 3, 12, NULL, 1), AACBVH_OK);
     TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
     aacbvh_bvh_destroy(bvh);

@@ -1,8 +1,12 @@
-// Unit tests of the SIMD kernels under AAC's greedy combine
-// (lib/distance_row.h) against plain loops: argmin_row on rows full of ties,
-// infinities and FLT_MAX at every length from 1 to 70, distance_row against
-// a double-precision union area, and the fused distance_row_argmin against
-// the two kernels it replaces.
+// Unit tests of the kernels under AAC's greedy combine
+// (build/aac/distance_row.h, build/aac/cluster_combine.h) against plain
+// loops: argmin_row on rows full of ties, infinities and FLT_MAX at every
+// length from 1 to 70, distance_row against a double-precision union area,
+// and the fused distance_row_argmin against the two kernels it replaces. Each
+// runs with every kernel this CPU has (scalar, SSE, AVX), forced in turn, and
+// the kernels must agree bit for bit. Then the three combine loops (small,
+// matrix, rows) must make the same merges, rows past the AVX kernel's float
+// index range must still find their minimum, and a build reaches the rows loop.
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -14,10 +18,14 @@ extern "C" {
 
 #include <cfloat>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <random>
 #include <vector>
 
+#include "build/aac/cluster_combine.h"
 #include "build/aac/distance_row.h"
+#include "core/scheduler.h"
 
 namespace {
 
@@ -29,7 +37,7 @@ uint32_t first_min(const std::vector<float> &row, uint32_t count) {
     return arg;
 }
 
-void test_argmin_row(void **) {
+void check_argmin_row() {
     std::mt19937 rng(17);
     const float palette[] = {INFINITY, FLT_MAX, 0.0f, 1.0f, 1.0f, 2.5f, 1e-30f, 3.0f};
     for (uint32_t count = 1; count <= 70; ++count) {
@@ -53,7 +61,7 @@ void test_argmin_row(void **) {
     }
 }
 
-void test_distance_row(void **) {
+void check_distance_row() {
     std::mt19937 rng(23);
     std::uniform_real_distribution<float> u(-100.0f, 100.0f);
     for (uint32_t count = 1; count <= 40; ++count) {
@@ -103,7 +111,7 @@ void test_distance_row(void **) {
 
 /// The fused row-and-nearest kernel against the two separate ones, on boxes
 /// drawn from a few shapes (so distances tie), with `self` anywhere.
-void test_distance_row_argmin(void **) {
+void check_distance_row_argmin() {
     std::mt19937 rng(29);
     for (uint32_t count = 1; count <= 70; ++count) {
         const uint32_t padded = (count + 7) & ~7u;
@@ -145,6 +153,202 @@ void test_distance_row_argmin(void **) {
     }
 }
 
+using aacbvh::DistanceKernel;
+
+const char *kernel_name(DistanceKernel k) {
+    return k == DistanceKernel::Scalar ? "scalar" : k == DistanceKernel::Sse ? "sse" : "avx";
+}
+
+/// Runs check() once with each kernel this CPU has, then restores the default.
+template <class F> void for_each_kernel(F &&check) {
+    const DistanceKernel original = aacbvh::distance_kernel();
+    int ran = 0;
+    for (DistanceKernel k : {DistanceKernel::Scalar, DistanceKernel::Sse, DistanceKernel::Avx}) {
+        if (!aacbvh::set_distance_kernel(k)) continue;
+        check();
+        ++ran;
+    }
+    assert_true(aacbvh::set_distance_kernel(original));
+    assert_true(ran >= 1);
+}
+
+void test_argmin_row(void **) { for_each_kernel(check_argmin_row); }
+void test_distance_row(void **) { for_each_kernel(check_distance_row); }
+void test_distance_row_argmin(void **) { for_each_kernel(check_distance_row_argmin); }
+
+/// Boxes as columns, padded to a multiple of 8 as the kernels read them.
+struct ColumnBoxes {
+    explicit ColumnBoxes(uint32_t count) : padded((count + 7) & ~7u), storage(6 * size_t(padded)) {
+        for (int k = 0; k < 3; ++k) {
+            boxes.lo[k] = storage.data() + k * size_t(padded);
+            boxes.hi[k] = storage.data() + (k + 3) * size_t(padded);
+        }
+    }
+    uint32_t padded;
+    std::vector<float> storage;
+    aacbvh::BoxColumns boxes;
+};
+
+/// Every kernel gives the same distances and the same nearest box, bit for
+/// bit, on random boxes, tied boxes and boxes wider than FLT_MAX.
+void test_kernels_agree(void **) {
+    std::mt19937 rng(31);
+    std::printf("kernels on this CPU:");
+    for (DistanceKernel k : {DistanceKernel::Scalar, DistanceKernel::Sse, DistanceKernel::Avx})
+        if (aacbvh::kernel_available(k)) std::printf(" %s", kernel_name(k));
+    std::printf("\n");
+    const DistanceKernel original = aacbvh::distance_kernel();
+    for (uint32_t count : {1u, 3u, 8u, 13u, 64u, 257u}) {
+        for (int trial = 0; trial < 30; ++trial) {
+            ColumnBoxes c(count);
+            for (uint32_t j = 0; j < c.padded; ++j)
+                for (int k = 0; k < 3; ++k) {
+                    float a = std::ldexp(float(int(rng() % 2001) - 1000), int(rng() % 20) - 10);
+                    float b = std::ldexp(float(int(rng() % 2001) - 1000), int(rng() % 20) - 10);
+                    if (trial % 3 == 0) a = float(rng() % 3), b = a + 1.0f;    // ties
+                    if (trial % 7 == 1 && j % 5 == 0) a = -FLT_MAX, b = FLT_MAX; // overflow
+                    c.boxes.lo[k][j] = std::fmin(a, b);
+                    c.boxes.hi[k][j] = std::fmax(a, b);
+                }
+            const uint32_t self = rng() % count;
+            float q[6];
+            for (int k = 0; k < 3; ++k) {
+                q[k] = c.boxes.lo[k][self];
+                q[k + 3] = c.boxes.hi[k][self];
+            }
+            const float scale = trial % 2 ? 1.0f : 1e-3f;
+            std::vector<float> first_row, first_fused;
+            uint32_t first_nearest = 0;
+            float first_best = 0.0f;
+            bool have_first = false;
+            for (DistanceKernel k : {DistanceKernel::Scalar, DistanceKernel::Sse, DistanceKernel::Avx}) {
+                if (!aacbvh::set_distance_kernel(k)) continue;
+                std::vector<float> row(c.padded), fused(c.padded);
+                float best = 0.0f;
+                aacbvh::distance_row(c.boxes, count, q, scale, row.data());
+                const uint32_t nearest = aacbvh::distance_row_argmin(c.boxes, count, q, scale, fused.data(), self, best);
+                row.resize(count);
+                fused.resize(count);
+                if (!have_first) {
+                    first_row = row, first_fused = fused, first_nearest = nearest, first_best = best;
+                    have_first = true;
+                    continue;
+                }
+                if (std::memcmp(row.data(), first_row.data(), count * sizeof(float)) != 0 ||
+                    std::memcmp(fused.data(), first_fused.data(), count * sizeof(float)) != 0 ||
+                    nearest != first_nearest || std::memcmp(&best, &first_best, sizeof best) != 0)
+                    fail_msg("count %u trial %d: the %s kernel differs from the scalar one", count, trial,
+                             kernel_name(k));
+            }
+        }
+    }
+    assert_true(aacbvh::set_distance_kernel(original));
+}
+
+/// Rows longer than 2^24: the fused AVX kernel counts indices in float
+/// lanes, exact only below 2^24, so such rows must take the other path and
+/// still find a minimum placed past 2^24.
+void test_rows_beyond_float_indices(void **) {
+    const uint32_t count = (uint32_t(1) << 24) + 13;
+    ColumnBoxes c(count);
+    for (uint32_t j = 0; j < c.padded; ++j)
+        for (int k = 0; k < 3; ++k) {
+            c.boxes.lo[k][j] = 0.0f;
+            c.boxes.hi[k][j] = 2.0f;
+        }
+    const uint32_t nearest = (uint32_t(1) << 24) + 5;
+    for (int k = 0; k < 3; ++k) c.boxes.hi[k][nearest] = 1.0f; // the only box inside the query
+    const float q[6] = {0, 0, 0, 1, 1, 1};
+    std::vector<float> out(c.padded);
+    for_each_kernel([&] {
+        float best = 0.0f;
+        const uint32_t got = aacbvh::distance_row_argmin(c.boxes, count, q, 1.0f, out.data(), 0, best);
+        if (got != nearest || best != 3.0f)
+            fail_msg("%s: nearest %u (%g), expected %u (3)", kernel_name(aacbvh::distance_kernel()), got,
+                     double(best), nearest);
+    });
+}
+
+/// One combine's input: `count` leaf clusters with boxes drawn so that
+/// distances tie often, and its output.
+struct CombineCase {
+    aacbvh::BinaryTree tree;
+    std::vector<uint32_t> ids, free_ids;
+    aacbvh::SubtreeChoices choices;
+    uint32_t left = 0;
+
+    CombineCase(uint32_t count, uint32_t seed) {
+        std::mt19937 rng(seed);
+        tree.resize(count);
+        for (uint32_t i = 0; i < count; ++i) {
+            aacbvh::Box b;
+            const bool tie = seed % 2 == 0;
+            for (int k = 0; k < 3; ++k) {
+                const float x = tie ? float(rng() % 6) : float(rng() % 100000) * 1e-3f;
+                b.lo[k] = x;
+                b.hi[k] = x + (tie ? 1.0f : float(rng() % 1000) * 1e-3f);
+            }
+            tree.boxes[i] = b;
+            tree.prim_ids[i] = i;
+            ids.push_back(i);
+            free_ids.push_back(count + i);
+        }
+        choices.resize(count);
+    }
+
+    void run(uint32_t target, aacbvh::CombineVariant variant, aacbvh::BuildContext &ctx) {
+        aacbvh::CombineScratchPool pool(nullptr);
+        const aacbvh::FlattenRule rule{4, 1.2, 1.0};
+        left = aacbvh::combine_clusters(tree, ids.data(), free_ids.data(), uint32_t(ids.size()), target, 1e-2f, rule,
+                                        choices.data(), pool, ctx, variant);
+    }
+
+    bool same(const CombineCase &o) const {
+        const uint32_t n = tree.leaf_count();
+        if (left != o.left || ids != o.ids || free_ids != o.free_ids) return false;
+        for (uint32_t i = 0; i + left < n; ++i) {
+            const uint32_t id = n + i; // merge i made inner node n + i (free ids are used in order)
+            if (tree.left(id) != o.tree.left(id) || tree.right(id) != o.tree.right(id)) return false;
+            if (std::memcmp(&tree.boxes[id], &o.tree.boxes[id], sizeof(aacbvh::Box)) != 0) return false;
+            if (choices[i].cost != o.choices[i].cost || choices[i].leaves != o.choices[i].leaves) return false;
+        }
+        return true;
+    }
+};
+
+/// The small, matrix and rows loops make the same merges in the same order,
+/// with every kernel; and a combine of more than 2048 clusters (rows) equals
+/// the matrix loop forced on it.
+void test_combine_variants_agree(void **) {
+    using aacbvh::CombineVariant;
+    aacbvh::Scheduler scheduler(1);
+    aacbvh::BuildContext ctx(scheduler, nullptr, nullptr);
+    for_each_kernel([&] {
+        for (uint32_t count : {2u, 5u, 9u, 16u, 17u, 40u, 300u}) {
+            for (uint32_t seed = 1; seed <= 6; ++seed) {
+                for (uint32_t target : {1u, 2u, count / 3 + 1}) {
+                    CombineCase reference(count, seed);
+                    reference.run(target, CombineVariant::Rows, ctx);
+                    for (CombineVariant v : {CombineVariant::Matrix, CombineVariant::Small}) {
+                        if (v == CombineVariant::Small && count > aacbvh::kSmallCombine) continue;
+                        CombineCase other(count, seed);
+                        other.run(target, v, ctx);
+                        if (!other.same(reference))
+                            fail_msg("%s kernel, %u clusters down to %u (seed %u): variant %d merges differently",
+                                     kernel_name(aacbvh::distance_kernel()), count, target, seed, int(v));
+                    }
+                }
+            }
+        }
+    });
+    const uint32_t big = aacbvh::kMatrixCombine + 100;
+    CombineCase rows(big, 2), matrix(big, 2);
+    rows.run(1, CombineVariant::Automatic, ctx); // beyond the matrix limit: rows
+    matrix.run(1, CombineVariant::Matrix, ctx);
+    assert_true(rows.left == 1);
+    assert_true(rows.same(matrix));
+}
+
 } // namespace
 
 int main() {
@@ -152,6 +356,9 @@ int main() {
         cmocka_unit_test(test_argmin_row),
         cmocka_unit_test(test_distance_row),
         cmocka_unit_test(test_distance_row_argmin),
+        cmocka_unit_test(test_kernels_agree),
+        cmocka_unit_test(test_rows_beyond_float_indices),
+        cmocka_unit_test(test_combine_variants_agree),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }

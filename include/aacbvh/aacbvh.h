@@ -238,6 +238,10 @@ AACBVH_API aacbvh_status aacbvh_bvh_get_param_float(const aacbvh_bvh *bvh, aacbv
 /* Geometry (referenced, never copied)                                   */
 /* ===================================================================== */
 
+/** The most primitives one BVH holds, 2^31 - 1 (since 1.1.0): the builders
+ *  number the 2n - 1 nodes of their binary trees with 32-bit ids. */
+#define AACBVH_MAX_PRIMITIVES 0x7FFFFFFFu
+
 /**
  * Makes the BVH's primitives `triangle_count` triangles. Vertex k's x, y, z
  * are the three floats at byte offset k * vertex_stride_bytes of `vertices`
@@ -254,7 +258,7 @@ AACBVH_API aacbvh_status aacbvh_bvh_get_param_float(const aacbvh_bvh *bvh, aacbv
  * triangle). Afterwards queries return AACBVH_ERROR_INVALID_OPERATION until
  * the next successful build or refit (refit needs the same primitive count).
  * Returns AACBVH_OK or AACBVH_ERROR_INVALID_ARGUMENT (NULL with a nonzero
- * count, bad stride, counts that overflow or exceed 2^32 - 2).
+ * count, bad stride, counts that overflow or exceed AACBVH_MAX_PRIMITIVES).
  */
 AACBVH_API aacbvh_status aacbvh_bvh_set_triangles(aacbvh_bvh *bvh,
                                                   const float *vertices, size_t vertex_count,
@@ -266,7 +270,7 @@ AACBVH_API aacbvh_status aacbvh_bvh_set_triangles(aacbvh_bvh *bvh,
  * and a multiple of 4). Same lifetime and validity rules as
  * aacbvh_bvh_set_triangles(); a box with min > max on an axis is invalid.
  * Returns AACBVH_OK or AACBVH_ERROR_INVALID_ARGUMENT (NULL with a nonzero
- * count, bad stride, counts that overflow or exceed 2^32 - 2).
+ * count, bad stride, counts that overflow or exceed AACBVH_MAX_PRIMITIVES).
  */
 AACBVH_API aacbvh_status aacbvh_bvh_set_boxes(aacbvh_bvh *bvh, const float *boxes,
                                               size_t box_count, size_t stride_bytes);

@@ -76,16 +76,18 @@ inline float distance_scale(const Box &bounds) {
     return float(std::min(1.0 / extent, double(FLT_MAX)));
 }
 
-/// union_half_area on extents scaled by `scale` (distance_scale()), the
-/// arithmetic of AAC's distance rows. Never NaN: an extent that still
-/// overflows (a scene wider than FLT_MAX) times a zero one gives +inf, so
-/// every comparison of distances stays a total order.
+/// AAC's cluster distance d(A, B) as every clustering builder computes it:
+/// union_half_area on extents scaled by `scale` (distance_scale()). The one
+/// overflow rule: a distance that leaves the float range (a scene wider than
+/// FLT_MAX overflows its extents; inf * 0 is NaN) is FLT_MAX, so distances
+/// are totally ordered and always below the +inf that marks "no candidate".
+/// The SIMD rows of build/aac/distance_row.h follow it bit for bit.
 inline float scaled_union_half_area(const Box &a, const Box &b, float scale) {
     const float dx = (std::max(a.hi[0], b.hi[0]) - std::min(a.lo[0], b.lo[0])) * scale;
     const float dy = (std::max(a.hi[1], b.hi[1]) - std::min(a.lo[1], b.lo[1])) * scale;
     const float dz = (std::max(a.hi[2], b.hi[2]) - std::min(a.lo[2], b.lo[2])) * scale;
     const float d = dx * dy + dy * dz + dz * dx;
-    return d == d ? d : INFINITY;
+    return d <= FLT_MAX ? d : FLT_MAX; // NaN compares false: FLT_MAX too
 }
 
 } // namespace aacbvh

@@ -21,9 +21,9 @@ uint64_t next_pool_id() {
     return next.fetch_add(1, std::memory_order_relaxed);
 }
 
-/// Above this many clusters the pairwise matrix (count^2 floats) is not kept;
-/// rows are recomputed when needed instead (exact-clustering settings reach this).
-constexpr uint32_t kMatrixLimit = 2048;
+/// Above kMatrixCombine clusters the pairwise matrix (count^2 floats) is not
+/// kept; rows are recomputed when needed instead (exact-clustering settings
+/// reach this).
 
 inline uint32_t padded(uint32_t n) { return (n + 7) & ~7u; }
 
@@ -204,7 +204,6 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
 /// The same greedy loop for a handful of clusters (AAC-Fast's nodes hold 2 to
 /// 8): everything in registers and stack arrays, scalar distances, no
 /// padding. Same tie rules as combine(), so results are identical.
-constexpr uint32_t kSmallLimit = 16;
 
 /// argmin_row() for rows of a few entries, inlined.
 /// Branch-free: which entry is smallest is data, not a pattern to predict.
@@ -223,17 +222,11 @@ inline uint32_t argmin_small(const float *row, uint32_t count, float &best) {
 uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
                        float scale, const FlattenRule &rule, SubtreeChoice *choices) {
     const uint32_t n = tree.leaf_count();
-    Box box[kSmallLimit];
-    float d[kSmallLimit][kSmallLimit];
-    float nd[kSmallLimit];
-    uint32_t nn[kSmallLimit];
-    auto dist = [scale](const Box &a, const Box &b) {
-        const float dx = (std::max(a.hi[0], b.hi[0]) - std::min(a.lo[0], b.lo[0])) * scale;
-        const float dy = (std::max(a.hi[1], b.hi[1]) - std::min(a.lo[1], b.lo[1])) * scale;
-        const float dz = (std::max(a.hi[2], b.hi[2]) - std::min(a.lo[2], b.lo[2])) * scale;
-        const float d = dx * dy + dy * dz + dz * dx;
-        return d <= FLT_MAX ? d : FLT_MAX; // as distance_row(): never inf or NaN, below the +inf diagonal
-    };
+    Box box[kSmallCombine];
+    float d[kSmallCombine][kSmallCombine];
+    float nd[kSmallCombine];
+    uint32_t nn[kSmallCombine];
+    auto dist = [scale](const Box &a, const Box &b) { return scaled_union_half_area(a, b, scale); };
     auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
 
     for (uint32_t i = 0; i < count; ++i) box[i] = tree.boxes[ids[i]];
@@ -317,10 +310,15 @@ CombineScratch &CombineScratchPool::local() {
 
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
                           float scale, const FlattenRule &rule, SubtreeChoice *choices, CombineScratchPool &scratch_pool,
-                          BuildContext &ctx) {
+                          BuildContext &ctx, CombineVariant variant) {
     if (target < 1) target = 1;
     if (count <= target) return count;
-    if (count <= kSmallLimit) return combine_small(tree, ids, free_ids, count, target, scale, rule, choices);
+    if (variant == CombineVariant::Automatic)
+        variant = count <= kSmallCombine    ? CombineVariant::Small
+                  : count <= kMatrixCombine ? CombineVariant::Matrix
+                                            : CombineVariant::Rows;
+    if (variant == CombineVariant::Small && count <= kSmallCombine)
+        return combine_small(tree, ids, free_ids, count, target, scale, rule, choices);
     CombineScratch &scratch = scratch_pool.local();
     const uint32_t stride = padded(count + 1);
     const MemoryMeter::Scope metered(scratch.meter); // growth counts in the build's peak
@@ -330,7 +328,7 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
         scratch.nearest.resize(count);
         scratch.rescan.resize(count);
     }
-    const bool use_matrix = count <= kMatrixLimit;
+    const bool use_matrix = variant == CombineVariant::Matrix;
     const size_t matrix_floats = use_matrix ? size_t(count) * stride : stride;
     if (scratch.distances.size() < matrix_floats) scratch.distances.resize(matrix_floats);
     if (use_matrix) return combine<true>(tree, ids, free_ids, count, target, scale, rule, choices, scratch, ctx);

@@ -61,8 +61,17 @@ private:
 /// flattening decision is made at once (its sub-tree is complete): choices
 /// are indexed by id - leaf count. Combines of more than a handful of
 /// clusters use the calling thread's scratch from the build's `scratch_pool`.
+///
+/// Three loops give the same merges: a register-sized one for at most
+/// kSmallCombine clusters, one over a cached distance matrix up to
+/// kMatrixCombine, and one that recomputes rows beyond. `variant` picks one
+/// for tests (Small needs count <= kSmallCombine); builds pass Automatic.
+enum class CombineVariant { Automatic, Small, Matrix, Rows };
+constexpr uint32_t kSmallCombine = 16;
+constexpr uint32_t kMatrixCombine = 2048;
+
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
                           float scale, const FlattenRule &rule, SubtreeChoice *choices, CombineScratchPool &scratch_pool,
-                          BuildContext &ctx);
+                          BuildContext &ctx, CombineVariant variant = CombineVariant::Automatic);
 
 } // namespace aacbvh

@@ -1,8 +1,11 @@
 #include "build/aac/distance_row.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cfloat>
 #include <cmath>
+
+#include "core/box.h"
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -13,18 +16,15 @@ namespace aacbvh {
 
 namespace {
 
-[[maybe_unused]] void distance_row_scalar(const BoxColumns &b, uint32_t count, const float q[6], float scale,
-                                          float *out) {
+void distance_row_scalar(const BoxColumns &b, uint32_t count, const float q[6], float scale, float *out) {
+    const Box query{{q[0], q[1], q[2]}, {q[3], q[4], q[5]}};
     for (uint32_t j = 0; j < count; ++j) {
-        const float dx = (std::max(b.hi[0][j], q[3]) - std::min(b.lo[0][j], q[0])) * scale;
-        const float dy = (std::max(b.hi[1][j], q[4]) - std::min(b.lo[1][j], q[1])) * scale;
-        const float dz = (std::max(b.hi[2][j], q[5]) - std::min(b.lo[2][j], q[2])) * scale;
-        const float d = dx * dy + dy * dz + dz * dx;
-        out[j] = d <= FLT_MAX ? d : FLT_MAX;
+        const Box other{{b.lo[0][j], b.lo[1][j], b.lo[2][j]}, {b.hi[0][j], b.hi[1][j], b.hi[2][j]}};
+        out[j] = scaled_union_half_area(other, query, scale);
     }
 }
 
-[[maybe_unused]] uint32_t argmin_row_scalar(const float *row, uint32_t count, float &best) {
+uint32_t argmin_row_scalar(const float *row, uint32_t count, float &best) {
     uint32_t arg = 0;
     best = row[0];
     for (uint32_t j = 1; j < count; ++j)
@@ -118,14 +118,7 @@ __attribute__((target("avx"))) uint32_t distance_row_argmin_avx(const BoxColumns
     return uint32_t(arg);
 }
 
-using RowFn = void (*)(const BoxColumns &, uint32_t, const float *, float, float *);
 
-RowFn pick_row_function() {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx") ? distance_row_avx : distance_row_sse;
-}
-
-const RowFn kRowFunction = pick_row_function();
 
 /// Minimum of row[0, count) and the first index holding it, in one pass:
 /// each of four lanes keeps its smallest value and where it first saw it
@@ -167,20 +160,53 @@ uint32_t argmin_row_sse(const float *row, uint32_t count, float &best) {
 #endif
 
 
+/// Indices are tracked in float lanes by the fused AVX kernel: exact below 2^24.
+constexpr uint32_t kFloatIndexLimit = uint32_t(1) << 24;
+
+DistanceKernel best_kernel() {
+#ifdef AACBVH_X86
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx") ? DistanceKernel::Avx : DistanceKernel::Sse;
+#else
+    return DistanceKernel::Scalar;
+#endif
+}
+
+std::atomic<DistanceKernel> g_kernel{best_kernel()};
+
 } // namespace
+
+DistanceKernel distance_kernel() { return g_kernel.load(std::memory_order_relaxed); }
+
+bool kernel_available(DistanceKernel kernel) {
+    switch (kernel) {
+    case DistanceKernel::Scalar: return true;
+#ifdef AACBVH_X86
+    case DistanceKernel::Sse: return true;
+    case DistanceKernel::Avx: return best_kernel() == DistanceKernel::Avx;
+#endif
+    default: return false;
+    }
+}
+
+bool set_distance_kernel(DistanceKernel kernel) {
+    if (!kernel_available(kernel)) return false;
+    g_kernel.store(kernel, std::memory_order_relaxed);
+    return true;
+}
 
 uint32_t argmin_row(const float *row, uint32_t count, float &best) {
 #ifdef AACBVH_X86
-    return argmin_row_sse(row, count, best);
-#else
-    return argmin_row_scalar(row, count, best);
+    if (distance_kernel() != DistanceKernel::Scalar) return argmin_row_sse(row, count, best);
 #endif
+    return argmin_row_scalar(row, count, best);
 }
 
 uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out,
                              uint32_t self, float &best) {
 #ifdef AACBVH_X86
-    if (kRowFunction == distance_row_avx) return distance_row_argmin_avx(boxes, count, query, scale, out, self, best);
+    if (distance_kernel() == DistanceKernel::Avx && count < kFloatIndexLimit)
+        return distance_row_argmin_avx(boxes, count, query, scale, out, self, best);
 #endif
     distance_row(boxes, count, query, scale, out);
     out[self] = INFINITY;
@@ -188,11 +214,13 @@ uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const floa
 }
 
 void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out) {
+    switch (distance_kernel()) {
 #ifdef AACBVH_X86
-    kRowFunction(boxes, count, query, scale, out);
-#else
-    distance_row_scalar(boxes, count, query, scale, out);
+    case DistanceKernel::Avx: distance_row_avx(boxes, count, query, scale, out); return;
+    case DistanceKernel::Sse: distance_row_sse(boxes, count, query, scale, out); return;
 #endif
+    default: distance_row_scalar(boxes, count, query, scale, out); return;
+    }
 }
 
 } // namespace aacbvh

@@ -23,13 +23,24 @@ struct BoxColumns {
 void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out);
 
 /// distance_row() with out[self] = +inf, returning argmin_row() of the result
-/// (the nearest other box, the lowest index on ties) in one pass. count must
-/// be below 2^24 (indices are tracked in float lanes).
+/// (the nearest other box, the lowest index on ties) in one pass. count
+/// may be anything: the fused AVX kernel tracks indices in float lanes, so
+/// rows of 2^24 and more take the separate kernels.
 uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out,
                              uint32_t self, float &best);
 
 /// Index of the smallest of row[0, count) (the lowest such index on ties),
 /// with its value in `best`; count >= 1. Reads only row[0, count).
 uint32_t argmin_row(const float *row, uint32_t count, float &best);
+
+/// The kernels: chosen once from the CPU (AVX where it has it, else SSE on
+/// x86-64, else plain C++); all give bit-identical results. Tests force each
+/// in turn (set_distance_kernel, not thread-safe: never during a build).
+enum class DistanceKernel { Scalar, Sse, Avx };
+DistanceKernel distance_kernel();
+/// Whether this build and CPU can run `kernel`.
+bool kernel_available(DistanceKernel kernel);
+/// Makes `kernel` the one in use; false (nothing changes) if it is not available.
+bool set_distance_kernel(DistanceKernel kernel);
 
 } // namespace aacbvh

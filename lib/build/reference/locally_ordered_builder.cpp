@@ -20,9 +20,10 @@
 //
 // Distances are computed on extents scaled by 1 / the scene's largest extent,
 // as AAC does (distance_scale()), so scenes at 1e30 or 1e-30 keep finite,
-// distinct distances. Should a distance still be infinite (a scene wider than
-// FLT_MAX), the search takes any cluster over none and the chain's "prev wins
-// ties" rule still ends every chain in a merge.
+// distinct distances. Should a distance still overflow (a scene wider than
+// FLT_MAX), it saturates at FLT_MAX (core/box.h), the search takes any cluster
+// over none and the chain's "prev wins ties" rule still ends every chain in a
+// merge.
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
