@@ -5,7 +5,9 @@
 #include <mutex>
 #include <new>
 #include <string>
+#include <system_error>
 #include <thread>
+#include <unordered_map>
 
 #include "aacbvh/aacbvh.h"
 #include "bvh_object.h"
@@ -20,23 +22,43 @@ struct aacbvh_context {
 struct aacbvh_bvh {
     explicit aacbvh_bvh(aacbvh::Scheduler &s) : object(s) {}
     aacbvh::BvhObject object;
-    mutable std::mutex error_mutex; // concurrent queries may fail together
-    mutable std::string last_error;
+    /// Each thread's last failure message on this handle (as Embree keeps
+    /// errors per thread): concurrent queries that fail do not overwrite each
+    /// other's message. Entries are nodes, so a returned c_str() stays put
+    /// while other threads add theirs.
+    mutable std::mutex error_mutex;
+    mutable std::unordered_map<std::thread::id, std::string> errors;
 };
 
 namespace {
 
 using aacbvh::Error;
 
+/// The calling thread's message for failures without a handle (aacbvh_last_error()).
+thread_local std::string tls_last_error;
+
+/// Stores `message` (or the status name when it is empty) in `slot`. Out of
+/// memory for it keeps the old one, made non-empty: never "" after a failure.
+void store_message(std::string &slot, aacbvh_status status, const char *message) noexcept {
+    try {
+        slot = (message && *message) ? message : aacbvh_status_string(status);
+    } catch (...) {
+        if (slot.empty()) slot.assign(1, '?');
+    }
+}
+
+/// Records a failure: on the handle for this thread, or, without a handle,
+/// as this thread's aacbvh_last_error().
 aacbvh_status fail(const aacbvh_bvh *bvh, aacbvh_status status, const char *message) {
-    if (bvh) {
-        std::lock_guard<std::mutex> lock(bvh->error_mutex);
-        try {
-            bvh->last_error = (message && *message) ? message : aacbvh_status_string(status);
-        } catch (...) {
-            // Out of memory for the message: keep the old one (never empty after a failure).
-            if (bvh->last_error.empty()) bvh->last_error.assign(1, '?');
-        }
+    if (!bvh) {
+        store_message(tls_last_error, status, message);
+        return status;
+    }
+    std::lock_guard<std::mutex> lock(bvh->error_mutex);
+    try {
+        store_message(bvh->errors[std::this_thread::get_id()], status, message);
+    } catch (...) {
+        // No memory for this thread's entry: nothing to write the message into.
     }
     return status;
 }
@@ -59,7 +81,7 @@ template <class F> aacbvh_status guarded(const aacbvh_bvh *bvh, F &&body) {
 
 #define AACBVH_REQUIRE_HANDLE(bvh)                                                                                 \
     do {                                                                                                           \
-        if (!(bvh)) return AACBVH_ERROR_INVALID_ARGUMENT;                                                          \
+        if (!(bvh)) return fail(nullptr, AACBVH_ERROR_INVALID_ARGUMENT, "bvh is NULL");                           \
     } while (0)
 
 #define AACBVH_REQUIRE(bvh, cond, message)                                                                         \
@@ -97,19 +119,21 @@ const char *aacbvh_status_string(aacbvh_status status) {
 }
 
 aacbvh_status aacbvh_context_create(uint32_t thread_count, aacbvh_context **out) {
-    if (!out) return AACBVH_ERROR_INVALID_ARGUMENT;
+    if (!out) return fail(nullptr, AACBVH_ERROR_INVALID_ARGUMENT, "out is NULL");
     *out = nullptr;
-    if (thread_count > 1024) return AACBVH_ERROR_INVALID_ARGUMENT;
+    if (thread_count > 1024)
+        return fail(nullptr, AACBVH_ERROR_INVALID_ARGUMENT, "thread_count must be at most 1024 (0 = one per core)");
     unsigned threads = thread_count;
     if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-    try {
-        *out = new aacbvh_context(threads);
-        return AACBVH_OK;
-    } catch (const std::bad_alloc &) {
-        return AACBVH_ERROR_OUT_OF_MEMORY;
-    } catch (...) {
-        return AACBVH_ERROR_INTERNAL; // e.g. threads could not be started
-    }
+    return guarded(nullptr, [&] {
+        try {
+            *out = new aacbvh_context(threads);
+        } catch (const std::system_error &e) {
+            // The system's threads are a resource like memory: out of them, out of memory.
+            throw Error(AACBVH_ERROR_OUT_OF_MEMORY,
+                        "could not start " + std::to_string(threads) + " threads: " + e.what());
+        }
+    });
 }
 
 uint32_t aacbvh_context_thread_count(const aacbvh_context *context) {
@@ -119,17 +143,10 @@ uint32_t aacbvh_context_thread_count(const aacbvh_context *context) {
 void aacbvh_context_destroy(aacbvh_context *context) { delete context; }
 
 aacbvh_status aacbvh_bvh_create(aacbvh_context *context, aacbvh_bvh **out) {
-    if (!out) return AACBVH_ERROR_INVALID_ARGUMENT;
+    if (!out) return fail(nullptr, AACBVH_ERROR_INVALID_ARGUMENT, "out is NULL");
     *out = nullptr;
-    if (!context) return AACBVH_ERROR_INVALID_ARGUMENT;
-    try {
-        *out = new aacbvh_bvh(context->scheduler);
-        return AACBVH_OK;
-    } catch (const std::bad_alloc &) {
-        return AACBVH_ERROR_OUT_OF_MEMORY;
-    } catch (...) {
-        return AACBVH_ERROR_INTERNAL;
-    }
+    if (!context) return fail(nullptr, AACBVH_ERROR_INVALID_ARGUMENT, "context is NULL");
+    return guarded(nullptr, [&] { *out = new aacbvh_bvh(context->scheduler); });
 }
 
 void aacbvh_bvh_destroy(aacbvh_bvh *bvh) { delete bvh; }
@@ -137,8 +154,11 @@ void aacbvh_bvh_destroy(aacbvh_bvh *bvh) { delete bvh; }
 const char *aacbvh_bvh_last_error(const aacbvh_bvh *bvh) {
     if (!bvh) return "invalid handle";
     std::lock_guard<std::mutex> lock(bvh->error_mutex);
-    return bvh->last_error.c_str();
+    const auto it = bvh->errors.find(std::this_thread::get_id());
+    return it == bvh->errors.end() ? "" : it->second.c_str();
 }
+
+const char *aacbvh_last_error(void) { return tls_last_error.c_str(); }
 
 aacbvh_status aacbvh_bvh_set_param_int(aacbvh_bvh *bvh, aacbvh_param param, int64_t value) {
     AACBVH_REQUIRE_HANDLE(bvh);

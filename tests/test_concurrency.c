@@ -3,7 +3,8 @@
  * - several application threads build their own BVHs at once on one shared
  *   context (its worker pool), and each tree equals the one built alone;
  * - several threads query one built BVH at once (intersect, occluded,
- *   get_stats, get_nodes), and every answer equals the single-threaded one.
+ *   get_stats, get_nodes), and every answer equals the single-threaded one;
+ * - threads whose calls fail on one BVH each read their own message.
  * The suite also runs under ThreadSanitizer, which checks the same calls for
  * data races.
  */
@@ -169,11 +170,61 @@ static void test_concurrent_queries_wide4(void **state) {
     check_concurrent_queries(AACBVH_LAYOUT_WIDE4);
 }
 
+/* Each thread reads the message of its own last failure on a shared handle. */
+typedef struct error_job {
+    aacbvh_bvh *bvh;
+    int kind; /* 0: intersect with NULL rays, 1: a node range past the end */
+    int wrong;
+} error_job;
+
+static void *error_thread(void *arg) {
+    error_job *job = (error_job *)arg;
+    aacbvh_hit hit;
+    aacbvh_node node;
+    const char *want = job->kind == 0 ? "rays or hits is NULL" : "node range";
+    for (int i = 0; i < 3000; ++i) {
+        const aacbvh_status s = job->kind == 0 ? aacbvh_bvh_intersect(job->bvh, NULL, &hit, 1)
+                                               : aacbvh_bvh_get_nodes(job->bvh, (size_t)1 << 40, 1, &node);
+        if (s != AACBVH_ERROR_INVALID_ARGUMENT || !strstr(aacbvh_bvh_last_error(job->bvh), want)) ++job->wrong;
+    }
+    return NULL;
+}
+
+static void test_errors_are_per_thread(void **state) {
+    (void)state;
+    ts_mesh mesh = {0};
+    assert_true(ts_make_scene(TS_SCENE_RANDOM, 500, 3, &mesh));
+    aacbvh_context *ctx;
+    aacbvh_bvh *bvh;
+    ts_create(2, &ctx, &bvh);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_triangles(bvh, mesh.vertices, mesh.vertex_count, 3 * sizeof(float),
+                                              mesh.indices, mesh.triangle_count),
+                     AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+    assert_string_equal(aacbvh_bvh_last_error(bvh), ""); /* nothing failed on this thread */
+    error_job jobs[kThreads];
+    pthread_t threads[kThreads];
+    for (int i = 0; i < kThreads; ++i) {
+        jobs[i].bvh = bvh;
+        jobs[i].kind = i % 2;
+        jobs[i].wrong = 0;
+        assert_int_equal(pthread_create(&threads[i], NULL, error_thread, &jobs[i]), 0);
+    }
+    for (int i = 0; i < kThreads; ++i) assert_int_equal(pthread_join(threads[i], NULL), 0);
+    for (int i = 0; i < kThreads; ++i)
+        if (jobs[i].wrong) fail_msg("thread %d read another thread's message %d times", i, jobs[i].wrong);
+    assert_string_equal(aacbvh_bvh_last_error(bvh), ""); /* still nothing failed on this thread */
+    aacbvh_bvh_destroy(bvh);
+    aacbvh_context_destroy(ctx);
+    ts_mesh_free(&mesh);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_concurrent_builds_on_one_context),
         cmocka_unit_test(test_concurrent_queries_binary),
         cmocka_unit_test(test_concurrent_queries_wide4),
+        cmocka_unit_test(test_errors_are_per_thread),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -83,18 +83,22 @@ static void test_null_handles(void **state) {
     stats.struct_size = sizeof stats;
 
     TS_EXPECT_STATUS(aacbvh_context_create(1, NULL), AACBVH_ERROR_INVALID_ARGUMENT);
+    assert_string_equal(aacbvh_last_error(), "out is NULL");
     TS_EXPECT_STATUS(aacbvh_context_create(1025, &ctx), AACBVH_ERROR_INVALID_ARGUMENT);
     assert_null(ctx);
+    assert_non_null(strstr(aacbvh_last_error(), "1024")); /* failures without a handle have a message too */
     assert_int_equal(aacbvh_context_thread_count(NULL), 0);
     aacbvh_context_destroy(NULL);
 
     TS_EXPECT_STATUS(aacbvh_bvh_create(NULL, &bvh), AACBVH_ERROR_INVALID_ARGUMENT);
     assert_null(bvh);
+    assert_string_equal(aacbvh_last_error(), "context is NULL");
     aacbvh_bvh_destroy(NULL);
     assert_non_null(aacbvh_bvh_last_error(NULL));
     assert_string_equal(aacbvh_bvh_last_error(NULL), "invalid handle");
 
     TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(NULL, AACBVH_PARAM_MAX_LEAF_SIZE, 2), AACBVH_ERROR_INVALID_ARGUMENT);
+    assert_string_equal(aacbvh_last_error(), "bvh is NULL");
     TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(NULL, AACBVH_PARAM_AAC_C, 1.0), AACBVH_ERROR_INVALID_ARGUMENT);
     TS_EXPECT_STATUS(aacbvh_bvh_get_param_int(NULL, AACBVH_PARAM_MAX_LEAF_SIZE, &i64), AACBVH_ERROR_INVALID_ARGUMENT);
     TS_EXPECT_STATUS(aacbvh_bvh_get_param_float(NULL, AACBVH_PARAM_AAC_C, &d), AACBVH_ERROR_INVALID_ARGUMENT);

@@ -17,7 +17,9 @@
  *     aacbvh_bvh_destroy(bvh);  aacbvh_context_destroy(ctx);
  *
  * Every fallible call returns an aacbvh_status; after a failure on a BVH
- * handle, aacbvh_bvh_last_error() explains it. The library never prints,
+ * handle, aacbvh_bvh_last_error() explains it to the thread that made the
+ * call, and aacbvh_last_error() explains failures without a handle (both per
+ * thread). The library never prints,
  * exits or aborts, and no C++ exception crosses this interface.
  *
  * Thread safety: a handle may be used by one thread at a time, except that
@@ -82,7 +84,7 @@ typedef enum aacbvh_status {
     AACBVH_ERROR_OUT_OF_MEMORY = 3,
     AACBVH_ERROR_INVALID_GEOMETRY = 4,  /**< NaN/infinite coordinates, index out of range */
     AACBVH_ERROR_CANCELLED = 5,         /**< the progress callback asked to stop */
-    AACBVH_ERROR_INTERNAL = 6,
+    AACBVH_ERROR_INTERNAL = 6,          /**< a bug in the library (any call may return it); the message says where */
     AACBVH_STATUS_MAX_ENUM = 0x7FFFFFFF
 } aacbvh_status;
 
@@ -103,7 +105,9 @@ typedef struct aacbvh_bvh aacbvh_bvh;
  * Creates a context with `thread_count` threads in all (the calling thread
  * included); 0 means one per available core.
  * Returns AACBVH_OK, AACBVH_ERROR_INVALID_ARGUMENT (out is NULL, or
- * thread_count > 1024) or AACBVH_ERROR_OUT_OF_MEMORY. On failure *out is NULL.
+ * thread_count > 1024) or AACBVH_ERROR_OUT_OF_MEMORY (also when the system
+ * cannot start the threads). On failure *out is NULL and aacbvh_last_error()
+ * says why.
  * The caller owns the context and frees it with aacbvh_context_destroy().
  * Thread-safe: contexts may be created from any thread.
  */
@@ -120,7 +124,8 @@ AACBVH_API void aacbvh_context_destroy(aacbvh_context *context);
  * Creates an empty BVH on `context` (which must outlive it), with default
  * parameters (AAC-HQ, leaves of at most 4 primitives).
  * Returns AACBVH_OK, AACBVH_ERROR_INVALID_ARGUMENT (a NULL argument) or
- * AACBVH_ERROR_OUT_OF_MEMORY. On failure *out is NULL. The caller owns the BVH
+ * AACBVH_ERROR_OUT_OF_MEMORY. On failure *out is NULL and aacbvh_last_error()
+ * says why. The caller owns the BVH
  * and frees it with aacbvh_bvh_destroy(). Thread-safe: several threads may
  * create BVHs on one context at once.
  */
@@ -129,11 +134,21 @@ AACBVH_API aacbvh_status aacbvh_bvh_create(aacbvh_context *context, aacbvh_bvh *
  *  buffers). Accepts NULL. No other call may use the handle meanwhile. */
 AACBVH_API void aacbvh_bvh_destroy(aacbvh_bvh *bvh);
 /**
- * The message of the last failed call on this handle: never NULL, non-empty
- * after any failure, "" if nothing has failed yet (and "invalid handle" for a
- * NULL bvh). Owned by the handle: valid until the next call on the handle.
+ * The message of the calling thread's last failed call on this handle: never
+ * NULL, non-empty after any failure, "" if nothing this thread called on the
+ * handle has failed yet (and "invalid handle" for a NULL bvh). Each thread
+ * has its own (since 1.1.0), so concurrent queries that fail do not overwrite
+ * each other's messages. Owned by the handle: valid until this thread's next
+ * call on the handle, or the handle's destruction. Thread-safe.
  */
 AACBVH_API const char *aacbvh_bvh_last_error(const aacbvh_bvh *bvh);
+/**
+ * The message of the calling thread's last failed call that had no BVH
+ * handle to keep it (aacbvh_context_create, aacbvh_bvh_create, and any call
+ * given a NULL bvh): never NULL, "" before any such failure. Per thread;
+ * valid until the thread's next such failure (since 1.1.0). Thread-safe.
+ */
+AACBVH_API const char *aacbvh_last_error(void);
 
 /* ===================================================================== */
 /* Parameters                                                            */
