@@ -6,6 +6,7 @@
 #include <cmath>
 #include <vector>
 
+#include "trace/hit_record.h"
 #include "trace/ray_primitives.h"
 #include "trace/spill_stack.h"
 
@@ -33,65 +34,40 @@ bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, fl
     const Node *nodes = bvh.nodes.data();
     const uint32_t *prim_ids = bvh.prim_ids.data();
     uint64_t boxes_tested = 1, prims_tested = 0;
-    bool found = false;
-    float best_u = 0.0f, best_v = 0.0f;
-    uint32_t best_prim = AACBVH_INVALID_ID;
+    HitRecord<AnyHit> best(tmax);
 
     float t_root;
     if (ray_box_conservative(box_ray, nodes[0].box, tmin, tmax, t_root)) {
         NodeStack stack;
-        uint32_t current = 0;
+        StackEntry current{0, t_root};
         for (;;) {
-            const Node &node = nodes[current];
+            const Node &node = nodes[current.node];
             if (!node.is_leaf()) {
                 const Node &left = nodes[node.first];
                 const Node &right = nodes[node.first + 1];
                 float tl, tr;
                 const unsigned hits =
-                    ray_box_pair_conservative(box_ray, left.box, right.box, tmin, tmax, tl, tr);
+                    ray_box_pair_conservative(box_ray, left.box, right.box, tmin, best.tmax, tl, tr);
                 const bool hit_l = (hits & 1u) != 0, hit_r = (hits & 2u) != 0;
                 boxes_tested += 2;
                 if (hit_l && hit_r) {
                     if (tr < tl) {
                         stack.push({node.first, tl});
-                        current = node.first + 1;
+                        current = {node.first + 1, tr};
                     } else {
                         stack.push({node.first + 1, tr});
-                        current = node.first;
+                        current = {node.first, tl};
                     }
                     continue;
                 }
-                if (hit_l) { current = node.first; continue; }
-                if (hit_r) { current = node.first + 1; continue; }
+                if (hit_l) { current = {node.first, tl}; continue; }
+                if (hit_r) { current = {node.first + 1, tr}; continue; }
             } else {
                 prims_tested += node.count;
-                const uint32_t end = node.first + node.count;
-                for (uint32_t i = node.first; i < end; ++i) {
-                    float t, u, v;
-                    if (prims.intersect(i, tmin, tmax, t, u, v)) {
-                        found = true;
-                        if (AnyHit) break;
-                        tmax = t;
-                        best_u = u;
-                        best_v = v;
-                        best_prim = prim_ids[i];
-                    }
-                }
-                if (AnyHit && found) break;
+                if (best.test_leaf(prims, prim_ids, node.first, node.count, tmin)) break;
             }
             // Next: the nearest pending node still in reach of the closest hit.
-            bool next = false;
-            while (!stack.empty()) {
-                const StackEntry e = stack.pop();
-                // The entry distance is rounded and may land a few ulps past a
-                // hit inside the box: widen as the box test widens its exit.
-                if (e.t <= tmax + std::fabs(tmax) * kTwoGamma3) {
-                    current = e.node;
-                    next = true;
-                    break;
-                }
-            }
-            if (!next) break;
+            if (!best.pop_next(stack, current)) break;
         }
     }
 
@@ -99,8 +75,8 @@ bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, fl
         counters->nodes_visited += boxes_tested;
         counters->primitive_tests += prims_tested;
     }
-    if (!AnyHit) write_closest(found, tmax, best_u, best_v, best_prim, hit);
-    return found;
+    if (!AnyHit) write_closest(best.found, best.tmax, best.u, best.v, best.prim, hit);
+    return best.found;
 }
 
 template <bool AnyHit>

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "trace/hit_record.h"
 #include "trace/ray_primitives.h"
 #include "trace/spill_stack.h"
 
@@ -143,9 +144,7 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
               float tmax, aacbvh_hit &hit) {
     const WideNode *nodes = wide.nodes();
     const uint32_t *prim_ids = bvh.prim_ids.data();
-    bool found = false;
-    float best_u = 0.0f, best_v = 0.0f;
-    uint32_t best_prim = AACBVH_INVALID_ID;
+    HitRecord<AnyHit> best(tmax);
 
     EntryStack stack;
     Entry current{0u, 0u, tmin}; // the root, an inner wide node
@@ -153,7 +152,7 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
         if (current.count == 0) {
             const WideNode &node = nodes[current.child];
             alignas(16) float t_entry[4];
-            unsigned mask = test_children(node, ray, tmin, tmax, t_entry);
+            unsigned mask = test_children(node, ray, tmin, best.tmax, t_entry);
             if (mask != 0) {
                 const unsigned k0 = unsigned(__builtin_ctz(mask));
                 mask &= mask - 1;
@@ -213,42 +212,15 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
                 current = Entry{node.child[k], node.count[k], t_entry[k]};
                 continue;
             }
-        } else {
-            const uint32_t end = current.child + current.count;
-            for (uint32_t i = current.child; i < end; ++i) {
-                float t, u, v;
-                if (prims.intersect(i, tmin, tmax, t, u, v)) {
-                    found = true;
-                    if (AnyHit) break;
-                    tmax = t;
-                    best_u = u;
-                    best_v = v;
-                    best_prim = prim_ids[i];
-                }
-            }
-            if (AnyHit && found) break;
+        } else if (best.test_leaf(prims, prim_ids, current.child, current.count, tmin)) {
+            break;
         }
         // Next: the nearest pending child still in reach of the closest hit.
-        // Its entry distance is rounded (up to 3 ulps late) and a primitive
-        // inside can lie nearer than it, so it is compared with tmax widened
-        // exactly as the node test widens its exit distance: a child is
-        // skipped only if the node test would now reject it too. Then the
-        // closest hit does not depend on the order of the visits.
-        const float reach = tmax + std::fabs(tmax) * kTwoGamma3;
-        bool next = false;
-        while (!stack.empty()) {
-            const Entry e = stack.pop();
-            if (e.t <= reach) {
-                current = e;
-                next = true;
-                break;
-            }
-        }
-        if (!next) break;
+        if (!best.pop_next(stack, current)) break;
     }
 
-    if (!AnyHit) write_closest(found, tmax, best_u, best_v, best_prim, hit);
-    return found;
+    if (!AnyHit) write_closest(best.found, best.tmax, best.u, best.v, best.prim, hit);
+    return best.found;
 }
 
 template <bool AnyHit>
