@@ -10,6 +10,7 @@
 #include <unordered_map>
 
 #include "aacbvh/aacbvh.h"
+#include "builder_table.h"
 #include "bvh_object.h"
 #include "core/error.h"
 #include "core/scheduler.h"
@@ -98,6 +99,21 @@ template <class Enum> int32_t enum_value(const Enum &e) {
     return v;
 }
 
+/// Copies entries [first, first + count) of `from` into `out` (the C API's
+/// element type, of the same layout), or throws INVALID_ARGUMENT naming the
+/// range and the array's length (`what` / `length_name`).
+template <class Array, class Out>
+void copy_range(const Array &from, size_t first, size_t count, Out *out, const char *what, const char *length_name) {
+    static_assert(sizeof(*from.data()) == sizeof(Out), "the C type must have the internal layout");
+    if (count > 0 && !out) throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "out is NULL");
+    if (first > from.size() || count > from.size() - first)
+        throw Error(AACBVH_ERROR_INVALID_ARGUMENT, std::string(what) + " [" + std::to_string(first) + ", " +
+                                                       std::to_string(first) + " + " + std::to_string(count) +
+                                                       ") is past the " + length_name + " " +
+                                                       std::to_string(from.size()));
+    if (count > 0) std::memcpy(out, from.data() + first, count * sizeof(Out));
+}
+
 } // namespace
 
 extern "C" {
@@ -116,6 +132,28 @@ const char *aacbvh_status_string(aacbvh_status status) {
     case AACBVH_ERROR_INTERNAL: return "AACBVH_ERROR_INTERNAL";
     default: return "unknown aacbvh_status";
     }
+}
+
+const char *aacbvh_builder_name(aacbvh_builder builder) {
+    const aacbvh::BuilderInfo *info = aacbvh::find_builder(enum_value(builder));
+    return info ? info->name : nullptr;
+}
+
+aacbvh_status aacbvh_builder_from_name(const char *name, aacbvh_builder *out) {
+    if (!name || !out) return fail(nullptr, AACBVH_ERROR_INVALID_ARGUMENT, "name or out is NULL");
+    return guarded(nullptr, [&] {
+        size_t count;
+        const aacbvh::BuilderInfo *table = aacbvh::builder_table(count);
+        std::string known;
+        for (size_t i = 0; i < count; ++i) {
+            if (std::strcmp(table[i].name, name) == 0) {
+                *out = table[i].value;
+                return;
+            }
+            known += (i ? ", " : "") + std::string(table[i].name);
+        }
+        throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "unknown builder '" + std::string(name) + "' (builders: " + known + ")");
+    });
 }
 
 aacbvh_status aacbvh_context_create(uint32_t thread_count, aacbvh_context **out) {
@@ -237,30 +275,16 @@ aacbvh_status aacbvh_bvh_get_stats(const aacbvh_bvh *bvh, aacbvh_stats *out) {
 aacbvh_status aacbvh_bvh_get_nodes(const aacbvh_bvh *bvh, size_t first, size_t count, aacbvh_node *out) {
     AACBVH_REQUIRE_HANDLE(bvh);
     return guarded(bvh, [&] {
-        if (count > 0 && !out) throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "out is NULL");
         bvh->object.require_tree();
-        const auto &nodes = bvh->object.tree().nodes;
-        if (count > 0 && !out) throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "out is NULL");
-        if (first > nodes.size() || count > nodes.size() - first)
-            throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "node range [" + std::to_string(first) + ", " +
-                                                           std::to_string(first) + " + " + std::to_string(count) +
-                                                           ") is past the node count " + std::to_string(nodes.size()));
-        if (count > 0) std::memcpy(out, nodes.data() + first, count * sizeof(aacbvh_node));
+        copy_range(bvh->object.tree().nodes, first, count, out, "node range", "node count");
     });
 }
 
 aacbvh_status aacbvh_bvh_get_primitive_indices(const aacbvh_bvh *bvh, size_t first, size_t count, uint32_t *out) {
     AACBVH_REQUIRE_HANDLE(bvh);
     return guarded(bvh, [&] {
-        if (count > 0 && !out) throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "out is NULL");
         bvh->object.require_tree();
-        const auto &ids = bvh->object.tree().prim_ids;
-        if (count > 0 && !out) throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "out is NULL");
-        if (first > ids.size() || count > ids.size() - first)
-            throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "index range [" + std::to_string(first) + ", " +
-                                                           std::to_string(first) + " + " + std::to_string(count) +
-                                                           ") is past the primitive count " + std::to_string(ids.size()));
-        if (count > 0) std::memcpy(out, ids.data() + first, count * sizeof(uint32_t));
+        copy_range(bvh->object.tree().prim_ids, first, count, out, "index range", "primitive count");
     });
 }
 

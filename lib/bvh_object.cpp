@@ -7,12 +7,11 @@
 #include <string>
 #include <utility>
 
-#include "build/aac/aac_builder.h"
 #include "build/binary_tree.h"
 #include "build/build_context.h"
 #include "build/build_input.h"
 #include "build/flatten.h"
-#include "build/reference/reference_builders.h"
+#include "builder_table.h"
 #include "bvh/bvh_refit.h"
 #include "bvh/bvh_stats.h"
 #include "core/error.h"
@@ -137,29 +136,9 @@ void BvhObject::build() {
             const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost};
             BinaryTree tree;
             SubtreeChoices choices;
-            bool decided = false; // AAC decides the flattening while it merges
-            switch (params.builder) {
-            case AACBVH_BUILDER_AAC_HQ:
-            case AACBVH_BUILDER_AAC_FAST:
-            case AACBVH_BUILDER_AAC:
-                build_aac(input, params.aac, rule, ctx, tree, choices);
-                decided = true;
-                break;
-            case AACBVH_BUILDER_SWEEP_SAH:
-                build_sweep_sah(input, ctx, tree);
-                break;
-            case AACBVH_BUILDER_BINNED_SAH:
-                build_binned_sah(input, ctx, tree);
-                break;
-            case AACBVH_BUILDER_LOCALLY_ORDERED:
-                build_locally_ordered(input, ctx, tree);
-                break;
-            case AACBVH_BUILDER_PLOC:
-                build_ploc(input, params.ploc_radius, ctx, tree);
-                break;
-            default:
-                throw Error(AACBVH_ERROR_INTERNAL, "unknown builder " + std::to_string(int(params.builder)));
-            }
+            const BuilderInfo *builder = find_builder(params.builder);
+            if (!builder) throw Error(AACBVH_ERROR_INTERNAL, "unknown builder " + std::to_string(int(params.builder)));
+            const bool decided = builder->build(input, params, rule, ctx, tree, choices);
             ctx.report(0.8);
             Array<Box>().swap(input.boxes); // flattening needs only the tree
             Array<uint32_t>().swap(input.prim_ids);

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <string>
 
+#include "builder_table.h"
 #include "core/error.h"
 
 namespace aacbvh {
@@ -49,19 +50,23 @@ void check_key_type(int32_t key, bool want_int) {
 
 } // namespace
 
-AacConfig Params::hq_preset() { return AacConfig{20, std::pow(20.0, 0.6) / 2.0, 0.4}; }
-AacConfig Params::fast_preset() { return AacConfig{4, std::pow(4.0, 0.7) / 2.0, 0.3}; }
+Params::Params() : aac(find_builder(AACBVH_BUILDER_AAC_HQ)->preset()) {}
 
 void Params::set_int(int32_t key, int64_t value) {
     check_key_type(key, true);
     switch (key) {
     case AACBVH_PARAM_BUILDER:
-        if (value < AACBVH_BUILDER_AAC_HQ || value > AACBVH_BUILDER_PLOC)
-            reject("builder " + std::to_string(value) + " is not an aacbvh_builder value (0 to 6)");
-        builder = aacbvh_builder(value);
-        if (builder == AACBVH_BUILDER_AAC_HQ) aac = hq_preset();
-        if (builder == AACBVH_BUILDER_AAC_FAST) aac = fast_preset();
+    {
+        size_t count;
+        builder_table(count);
+        const BuilderInfo *info = find_builder(value);
+        if (!info)
+            reject("builder " + std::to_string(value) + " is not an aacbvh_builder value (0 to " +
+                   std::to_string(count - 1) + ")");
+        builder = info->value;
+        if (info->preset) aac = info->preset();
         break;
+    }
     case AACBVH_PARAM_AAC_DELTA:
         if (value < 2 || value > (1 << 20)) reject("AAC delta must be in [2, 2^20], got " + std::to_string(value));
         aac.delta = uint32_t(value);

@@ -9,8 +9,10 @@
 namespace aacbvh {
 
 struct Params {
+    Params();
+
     aacbvh_builder builder = AACBVH_BUILDER_AAC_HQ;
-    AacConfig aac = hq_preset();
+    AacConfig aac; ///< the builder's preset (builder_table.h) or the caller's values
     uint32_t max_leaf_size = 4;
     double traversal_cost = 1.2;
     double intersection_cost = 1.0;
@@ -19,11 +21,6 @@ struct Params {
     aacbvh_layout layout = AACBVH_LAYOUT_BINARY;
     aacbvh_triangle_storage triangle_storage = AACBVH_TRIANGLES_REFERENCED;
     bool keep_build_memory = false;
-
-    /// The paper's presets: HQ delta 20, f(n) = (20^0.6 / 2) n^0.4;
-    /// Fast delta 4, f(n) = (4^0.7 / 2) n^0.3.
-    static AacConfig hq_preset();
-    static AacConfig fast_preset();
 
     /// Throw Error(AACBVH_ERROR_INVALID_ARGUMENT) for unknown keys, a key of the
     /// other type, or values out of range; then nothing changes.

@@ -311,6 +311,33 @@ static void test_handles_independent(void **state) {
     aacbvh_bvh_destroy(other);
 }
 
+/* Builder names: every value 0.. has one until the first NULL, names and
+ * values round-trip, every named builder is accepted by the parameter, and
+ * the first value past the table is rejected by both. */
+static void test_builder_names(void **state) {
+    aacbvh_bvh *bvh = (aacbvh_bvh *)*state;
+    const char *expected[] = {"aac-hq", "aac-fast", "aac", "sweep-sah", "binned-sah", "locally-ordered", "ploc"};
+    int count = 0;
+    aacbvh_builder got;
+    while (aacbvh_builder_name((aacbvh_builder)count)) {
+        const char *name = aacbvh_builder_name((aacbvh_builder)count);
+        assert_true(count < (int)(sizeof expected / sizeof expected[0]));
+        assert_string_equal(name, expected[count]);
+        TS_EXPECT_STATUS(aacbvh_builder_from_name(name, &got), AACBVH_OK);
+        assert_int_equal(got, count);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, count), AACBVH_OK);
+        ++count;
+    }
+    assert_int_equal(count, (int)(sizeof expected / sizeof expected[0]));
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, count), AACBVH_ERROR_INVALID_ARGUMENT);
+    assert_null(aacbvh_builder_name((aacbvh_builder)-1));
+    assert_null(aacbvh_builder_name(AACBVH_BUILDER_MAX_ENUM));
+    TS_EXPECT_STATUS(aacbvh_builder_from_name("aac-hq ", &got), AACBVH_ERROR_INVALID_ARGUMENT);
+    assert_non_null(strstr(aacbvh_last_error(), "sweep-sah")); /* the message lists the names */
+    TS_EXPECT_STATUS(aacbvh_builder_from_name(NULL, &got), AACBVH_ERROR_INVALID_ARGUMENT);
+    TS_EXPECT_STATUS(aacbvh_builder_from_name("ploc", NULL), AACBVH_ERROR_INVALID_ARGUMENT);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_defaults, setup_bvh, teardown_bvh),
@@ -319,6 +346,7 @@ int main(void) {
         cmocka_unit_test_setup_teardown(test_wrong_type, setup_bvh, teardown_bvh),
         cmocka_unit_test_setup_teardown(test_presets, setup_bvh, teardown_bvh),
         cmocka_unit_test_setup_teardown(test_handles_independent, setup_bvh, teardown_bvh),
+        cmocka_unit_test_setup_teardown(test_builder_names, setup_bvh, teardown_bvh),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -166,6 +166,17 @@ typedef enum aacbvh_builder {
     AACBVH_BUILDER_MAX_ENUM = 0x7FFFFFFF
 } aacbvh_builder;
 
+/** The builder's short name ("aac-hq", "aac-fast", "aac", "sweep-sah",
+ *  "binned-sah", "locally-ordered", "ploc"), or NULL for a value that is no
+ *  builder. Builders are numbered from 0 without gaps, so a program can list
+ *  them all: for (b = 0; aacbvh_builder_name(b); ++b). Static storage.
+ *  Thread-safe. Since 1.1.0. */
+AACBVH_API const char *aacbvh_builder_name(aacbvh_builder builder);
+/** The builder whose aacbvh_builder_name() is `name` into *out. Returns
+ *  AACBVH_OK or AACBVH_ERROR_INVALID_ARGUMENT (NULL argument, unknown name;
+ *  aacbvh_last_error() lists the names). Thread-safe. Since 1.1.0. */
+AACBVH_API aacbvh_status aacbvh_builder_from_name(const char *name, aacbvh_builder *out);
+
 /**
  * Parameter keys. Values are pinned forever. Each key has one type: integer
  * keys are read and written with the _int calls, float keys with the _float

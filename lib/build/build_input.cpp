@@ -103,4 +103,13 @@ void compute_build_input(const Geometry &geometry, bool skip_invalid, BuildConte
     input.invalid_count = all.invalid;
 }
 
+void gather_leaves(const BuildInput &input, const uint32_t *order, Scheduler &scheduler, BinaryTree &out) {
+    scheduler.parallel_for(0, out.leaf_count(), kGrain, [&](size_t b, size_t e) {
+        for (size_t i = b; i < e; ++i) {
+            out.boxes[i] = input.boxes[order[i]];
+            out.prim_ids[i] = input.prim_ids[order[i]];
+        }
+    });
+}
+
 } // namespace aacbvh

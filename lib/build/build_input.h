@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "build/binary_tree.h"
 #include "build/build_context.h"
 #include "core/box.h"
 #include "core/geometry.h"
@@ -29,5 +30,10 @@ const char *primitive_problem(const Geometry &geometry, size_t i);
 /// Checks the geometry and fills `input`. Throws Error(AACBVH_ERROR_INVALID_GEOMETRY)
 /// naming the first bad primitive, unless skip_invalid leaves bad ones out.
 void compute_build_input(const Geometry &geometry, bool skip_invalid, BuildContext &ctx, BuildInput &input);
+
+/// The leaves of a builder's tree in the builder's order: leaf i of `out`
+/// (sized already) takes input entry order[i], its box and the caller's
+/// primitive index. Runs in parallel.
+void gather_leaves(const BuildInput &input, const uint32_t *order, Scheduler &scheduler, BinaryTree &out);
 
 } // namespace aacbvh

@@ -118,12 +118,7 @@ void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &ru
     ctx.report(0.3);
 
     out.resize(n);
-    ctx.scheduler().parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
-        for (size_t i = b; i < e; ++i) {
-            out.boxes[i] = input.boxes[order[i]];
-            out.prim_ids[i] = input.prim_ids[order[i]];
-        }
-    });
+    gather_leaves(input, order.data(), ctx.scheduler(), out);
     Array<uint32_t>().swap(order);
     Array<Box>().swap(input.boxes); // the leaves hold them now, in Morton order
     if (n == 1) {

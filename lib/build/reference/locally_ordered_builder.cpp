@@ -84,10 +84,7 @@ public:
         Array<uint64_t> codes;
         Array<uint32_t> order;
         sort_by_morton_code(input_, ctx_.scheduler(), codes, order);
-        for (uint32_t i = 0; i < n_; ++i) {
-            out_.prim_ids[i] = input_.prim_ids[order[i]];
-            out_.boxes[i] = input_.boxes[order[i]];
-        }
+        gather_leaves(input_, order.data(), ctx_.scheduler(), out_);
         out_.root = 0;
         if (n_ == 1) return;
         scale_ = distance_scale(input_.bounds);

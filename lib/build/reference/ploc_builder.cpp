@@ -61,10 +61,10 @@ void build_ploc(const BuildInput &input, uint32_t radius, BuildContext &ctx, Bin
     // compacted list being written.
     Array<uint32_t> ids(n), next_ids(n), neighbour(n);
     Array<Box> boxes(n), next_boxes(n);
+    gather_leaves(input, order.data(), scheduler, out);
     scheduler.parallel_for(0, n, kGrain, [&](size_t begin, size_t end) {
         for (size_t i = begin; i < end; ++i) {
-            out.prim_ids[i] = input.prim_ids[order[i]];
-            out.boxes[i] = boxes[i] = input.boxes[order[i]];
+            boxes[i] = out.boxes[i];
             ids[i] = uint32_t(i);
         }
     });

@@ -1,0 +1,32 @@
+// Approximate Agglomerative Clustering (Gu, He, Fatahalian, Blelloch, HPG 2013):
+// the library's own builder. Like every builder it turns a BuildInput into a
+// BinaryTree with one primitive per leaf; unlike the others it also makes the
+// flattening decisions (build/flatten.h) as it merges.
+#pragma once
+
+#include <cstdint>
+
+#include "build/binary_tree.h"
+#include "build/build_context.h"
+#include "build/build_input.h"
+#include "build/flatten.h"
+
+namespace aacbvh {
+
+/// AAC parameters (Gu et al. 2013): ranges under `delta` primitives stay
+/// unsplit; a node over n primitives hands f(n) = ceil(c * n^alpha) clusters up.
+struct AacConfig {
+    uint32_t delta = 20;
+    double c = 0.0;
+    double alpha = 0.4;
+};
+
+/// f(n) = ceil(c * n^alpha), never below 1.
+uint32_t aac_cluster_target(const AacConfig &config, uint32_t n);
+
+/// Also makes every node's flattening decision as it is created (into
+/// `choices`), and releases input.boxes once they are gathered into the tree.
+void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &rule, BuildContext &ctx,
+               BinaryTree &out, SubtreeChoices &choices);
+
+} // namespace aacbvh

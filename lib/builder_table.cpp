@@ -1,0 +1,80 @@
+#include "builder_table.h"
+
+#include <cmath>
+
+#include "build/reference/reference_builders.h"
+#include "params.h"
+
+namespace aacbvh {
+
+namespace {
+
+/// The paper's presets: HQ delta 20, f(n) = (20^0.6 / 2) n^0.4;
+/// Fast delta 4, f(n) = (4^0.7 / 2) n^0.3.
+AacConfig hq_preset() { return AacConfig{20, std::pow(20.0, 0.6) / 2.0, 0.4}; }
+AacConfig fast_preset() { return AacConfig{4, std::pow(4.0, 0.7) / 2.0, 0.3}; }
+
+bool run_aac(BuildInput &input, const Params &params, const FlattenRule &rule, BuildContext &ctx, BinaryTree &tree,
+             SubtreeChoices &choices) {
+    build_aac(input, params.aac, rule, ctx, tree, choices);
+    return true;
+}
+
+bool run_sweep(BuildInput &input, const Params &, const FlattenRule &, BuildContext &ctx, BinaryTree &tree,
+               SubtreeChoices &) {
+    build_sweep_sah(input, ctx, tree);
+    return false;
+}
+
+bool run_binned(BuildInput &input, const Params &, const FlattenRule &, BuildContext &ctx, BinaryTree &tree,
+                SubtreeChoices &) {
+    build_binned_sah(input, ctx, tree);
+    return false;
+}
+
+bool run_locally_ordered(BuildInput &input, const Params &, const FlattenRule &, BuildContext &ctx,
+                         BinaryTree &tree, SubtreeChoices &) {
+    build_locally_ordered(input, ctx, tree);
+    return false;
+}
+
+bool run_ploc(BuildInput &input, const Params &params, const FlattenRule &, BuildContext &ctx, BinaryTree &tree,
+              SubtreeChoices &) {
+    build_ploc(input, params.ploc_radius, ctx, tree);
+    return false;
+}
+
+constexpr BuilderInfo kBuilders[] = {
+    {AACBVH_BUILDER_AAC_HQ, "aac-hq", "AAC, the paper's high-quality preset (delta 20, alpha 0.4): the default",
+     hq_preset, run_aac},
+    {AACBVH_BUILDER_AAC_FAST, "aac-fast", "AAC, the paper's fast preset (delta 4, alpha 0.3)", fast_preset, run_aac},
+    {AACBVH_BUILDER_AAC, "aac", "AAC with your own delta, c and alpha", nullptr, run_aac},
+    {AACBVH_BUILDER_SWEEP_SAH, "sweep-sah", "top-down full-sweep SAH, the quality reference", nullptr, run_sweep},
+    {AACBVH_BUILDER_BINNED_SAH, "binned-sah", "top-down binned SAH, 16 bins", nullptr, run_binned},
+    {AACBVH_BUILDER_LOCALLY_ORDERED, "locally-ordered", "exact agglomerative clustering (slow; for comparison)",
+     nullptr, run_locally_ordered},
+    {AACBVH_BUILDER_PLOC, "ploc", "parallel locally-ordered clustering", nullptr, run_ploc},
+};
+
+constexpr size_t kBuilderCount = sizeof kBuilders / sizeof kBuilders[0];
+
+// The table is indexed by value: entry i is builder i.
+constexpr bool dense() {
+    for (size_t i = 0; i < kBuilderCount; ++i)
+        if (size_t(kBuilders[i].value) != i) return false;
+    return true;
+}
+static_assert(dense(), "builder_table entries must be in aacbvh_builder order");
+
+} // namespace
+
+const BuilderInfo *builder_table(size_t &count) {
+    count = kBuilderCount;
+    return kBuilders;
+}
+
+const BuilderInfo *find_builder(int64_t value) {
+    return value >= 0 && uint64_t(value) < kBuilderCount ? &kBuilders[value] : nullptr;
+}
+
+} // namespace aacbvh
