@@ -10,6 +10,7 @@
 // directory compiled in as AACBVH_SCENES_DIR; else a generated scene.
 #include <aacbvh/aacbvh.h>
 
+#include "random.h"
 #include "scene.h"
 
 #include <algorithm>
@@ -187,30 +188,16 @@ bool parse_options(int argc, char **argv, Options &opt, bool &help) {
 // A fixed set of rays per scene: origins spread through the middle of the
 // scene's bounds, directions uniform over the sphere. Same rays every run.
 std::vector<aacbvh_ray> make_rays(const Scene &scene, size_t count) {
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t v = 0; v < scene.vertex_count(); ++v)
-        for (int k = 0; k < 3; ++k) {
-            lo[k] = std::min(lo[k], scene.vertices[3 * v + k]);
-            hi[k] = std::max(hi[k], scene.vertices[3 * v + k]);
-        }
-    uint64_t state = 0x5EED5EED12345678ull;
-    auto uniform = [&state]() {  // xorshift64*, in [0, 1)
-        state ^= state >> 12;
-        state ^= state << 25;
-        state ^= state >> 27;
-        return static_cast<double>((state * 0x2545F4914F6CDD1Dull) >> 11) * (1.0 / 9007199254740992.0);
-    };
+    float lo[3], hi[3];
+    scene_bounds(scene.vertices.data(), scene.vertex_count(), lo, hi);
+    SplitMix64 random(0x5EED5EED12345678ull);
     std::vector<aacbvh_ray> rays(count);
     for (aacbvh_ray &ray : rays) {
         for (int k = 0; k < 3; ++k) {
             const double centre = 0.5 * (double(lo[k]) + hi[k]), half = 0.5 * (double(hi[k]) - lo[k]);
-            ray.org[k] = static_cast<float>(centre + 0.8 * half * (2.0 * uniform() - 1.0));
+            ray.org[k] = static_cast<float>(centre + 0.8 * half * random.uniform(-1.0, 1.0));
         }
-        const double z = 2.0 * uniform() - 1.0, phi = 6.283185307179586 * uniform();
-        const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
-        ray.dir[0] = static_cast<float>(r * std::cos(phi));
-        ray.dir[1] = static_cast<float>(r * std::sin(phi));
-        ray.dir[2] = static_cast<float>(z);
+        random.direction(ray.dir);
         ray.tmin = 0.0f;
         ray.tmax = INFINITY;
     }

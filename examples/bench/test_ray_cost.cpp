@@ -1,6 +1,7 @@
 // Tests of the benchmark's ray-cost counter (ray_cost.h): counts on a hand-built
 // tree where every step and test is known, the SAH formula, the tree checker,
 // and agreement of the counting tracer with aacbvh_bvh_intersect on a library tree.
+#include "random.h"
 #include "ray_cost.h"
 
 #include <aacbvh/aacbvh.h>
@@ -170,11 +171,8 @@ void test_against_library() {
     CHECK(std::fabs(sah_cost(tree) - stats.sah_cost) < 1e-4 * stats.sah_cost);
 
     std::vector<aacbvh_ray> rays;
-    uint64_t state = 12345;
-    auto uniform = [&] {
-        state = state * 6364136223846793005ull + 1442695040888963407ull;
-        return float(state >> 40) / 16777216.0f;
-    };
+    SplitMix64 random(12345);
+    auto uniform = [&] { return random.uniform_float(); };
     for (int i = 0; i < 2000; ++i)
         rays.push_back(make_ray(uniform() * n, uniform() * n, 2.0f, uniform() - 0.5f, uniform() - 0.5f, -1.0f));
     std::vector<aacbvh_hit> hits(rays.size());
