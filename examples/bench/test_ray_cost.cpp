@@ -1,6 +1,7 @@
 // Tests of the benchmark's ray-cost counter (ray_cost.h): counts on a hand-built
 // tree where every step and test is known, the SAH formula, the tree checker,
 // and agreement of the counting tracer with aacbvh_bvh_intersect on a library tree.
+#include "bench_test.h"
 #include "random.h"
 #include "ray_cost.h"
 
@@ -14,16 +15,6 @@
 using namespace bench;
 
 namespace {
-
-int g_failures = 0;
-
-#define CHECK(cond)                                                             \
-    do {                                                                        \
-        if (!(cond)) {                                                          \
-            std::fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
-            ++g_failures;                                                       \
-        }                                                                       \
-    } while (0)
 
 aacbvh_ray make_ray(float ox, float oy, float oz, float dx, float dy, float dz, float tmin = 0.0f,
                     float tmax = std::numeric_limits<float>::infinity()) {
@@ -198,10 +189,5 @@ int main() {
     test_hand_built_counts();
     test_sah_and_checker();
     test_against_library();
-    if (g_failures) {
-        std::fprintf(stderr, "test_ray_cost: %d check(s) failed\n", g_failures);
-        return 1;
-    }
-    std::printf("test_ray_cost: all checks passed\n");
-    return 0;
+    return bench_test::finish("test_ray_cost");
 }
