@@ -1,7 +1,10 @@
 // aacbvh-demo: builds a BVH over each scene with each builder, several times,
-// and prints build time, tree quality (SAH cost) and size. Every builder's
-// closest hits for a fixed set of random rays are compared with the first
-// builder's, so a wrong tree shows up as a failure rather than a fast time.
+// and prints build time, tree quality (SAH cost) and size, with build time and
+// SAH cost also as ratios to the reference builder (sweep SAH) on the same
+// scene, and a legend of the columns under the table. Every builder's closest
+// hits for a fixed set of random rays are compared with the first builder's
+// (the reference, which runs first), so a wrong tree shows up as a failure
+// rather than a fast time.
 //
 //   aacbvh-demo [options] [scene.obj ...]     (aacbvh-demo --help for options)
 //
@@ -10,6 +13,7 @@
 // directory compiled in as AACBVH_SCENES_DIR; else a generated scene.
 #include <aacbvh/aacbvh.h>
 
+#include "random.h"
 #include "scene.h"
 
 #include <algorithm>
@@ -33,6 +37,10 @@ struct BuilderInfo {
     const char *name;        ///< command-line and table name
     aacbvh_builder builder;
 };
+
+/// The builder the ratio columns divide by: top-down full-sweep SAH, the
+/// classic quality reference (the AAC paper's too). It runs first on each scene.
+constexpr aacbvh_builder kReference = AACBVH_BUILDER_SWEEP_SAH;
 
 /// Relative difference of closest-hit distances accepted as rounding.
 constexpr double kRelativeTolerance = 1e-5;
@@ -63,8 +71,9 @@ void usage(FILE *out) {
     std::fprintf(out,
         "usage: aacbvh-demo [options] [scene.obj ...]\n"
         "Builds BVHs over each scene with each builder and prints a table of build\n"
-        "times (median, min, max over the runs), SAH cost, node and leaf counts, depth\n"
-        "and memory per triangle.\n"
+        "times (median, min, max over the runs), SAH cost, both also relative to\n"
+        "sweep-sah on the same scene, node and leaf counts, depth and memory per\n"
+        "triangle; a legend under the table says what each column means.\n"
         "\n"
         "Scenes: the OBJ files given; else every *.obj in $AACBVH_SCENES, else in\n"
         "  %s;\n"
@@ -181,36 +190,25 @@ bool parse_options(int argc, char **argv, Options &opt, bool &help) {
             opt.paths.push_back(arg);
         }
     }
+    // The reference first: the ratio columns and the ray check need its results.
+    std::stable_partition(opt.builders.begin(), opt.builders.end(),
+                          [](const BuilderInfo &b) { return b.builder == kReference; });
     return true;
 }
 
 // A fixed set of rays per scene: origins spread through the middle of the
 // scene's bounds, directions uniform over the sphere. Same rays every run.
 std::vector<aacbvh_ray> make_rays(const Scene &scene, size_t count) {
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t v = 0; v < scene.vertex_count(); ++v)
-        for (int k = 0; k < 3; ++k) {
-            lo[k] = std::min(lo[k], scene.vertices[3 * v + k]);
-            hi[k] = std::max(hi[k], scene.vertices[3 * v + k]);
-        }
-    uint64_t state = 0x5EED5EED12345678ull;
-    auto uniform = [&state]() {  // xorshift64*, in [0, 1)
-        state ^= state >> 12;
-        state ^= state << 25;
-        state ^= state >> 27;
-        return static_cast<double>((state * 0x2545F4914F6CDD1Dull) >> 11) * (1.0 / 9007199254740992.0);
-    };
+    float lo[3], hi[3];
+    scene_bounds(scene.vertices.data(), scene.vertex_count(), lo, hi);
+    SplitMix64 random(0x5EED5EED12345678ull);
     std::vector<aacbvh_ray> rays(count);
     for (aacbvh_ray &ray : rays) {
         for (int k = 0; k < 3; ++k) {
             const double centre = 0.5 * (double(lo[k]) + hi[k]), half = 0.5 * (double(hi[k]) - lo[k]);
-            ray.org[k] = static_cast<float>(centre + 0.8 * half * (2.0 * uniform() - 1.0));
+            ray.org[k] = static_cast<float>(centre + 0.8 * half * random.uniform(-1.0, 1.0));
         }
-        const double z = 2.0 * uniform() - 1.0, phi = 6.283185307179586 * uniform();
-        const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
-        ray.dir[0] = static_cast<float>(r * std::cos(phi));
-        ray.dir[1] = static_cast<float>(r * std::sin(phi));
-        ray.dir[2] = static_cast<float>(z);
+        random.direction(ray.dir);
         ray.tmin = 0.0f;
         ray.tmax = INFINITY;
     }
@@ -234,6 +232,15 @@ void check(aacbvh_status status, const aacbvh_bvh *bvh, const char *what, const 
     throw Failure();
 }
 
+/// value / reference as "0.42", or "-" when the reference did not run.
+std::string ratio_text(double value, double reference) {
+    if (!(reference > 0.0))
+        return "-";
+    char text[32];
+    std::snprintf(text, sizeof text, "%.2f", value / reference);
+    return text;
+}
+
 /// Runs every builder on one scene and prints a table row per builder.
 /// Returns the number of rays whose hits differ from the first builder's.
 size_t run_scene(aacbvh_context *ctx, const Scene &scene, const Options &opt) {
@@ -242,6 +249,7 @@ size_t run_scene(aacbvh_context *ctx, const Scene &scene, const Options &opt) {
     std::vector<aacbvh_hit> reference, hits(rays.size());
     bool have_reference = false;
     size_t mismatches = 0;
+    double reference_ms = NAN, reference_sah = NAN;  // of kReference on this scene
 
     for (const BuilderInfo &info : opt.builders) {
         const std::string where = scene.name + " / " + info.name;
@@ -319,10 +327,17 @@ size_t run_scene(aacbvh_context *ctx, const Scene &scene, const Options &opt) {
             }
 
             const double per_tri = triangles ? 1.0 / static_cast<double>(triangles) : 0.0;
-            std::printf("%-18s %10zu %-16s %4zu %10.2f %10.2f %10.2f %9.2f %9llu %9llu %5u %7.1f %7.1f  %s\n",
-                        scene.name.c_str(), triangles, info.name, times_ms.size(), median(times_ms),
+            const double median_ms = median(times_ms);
+            if (info.builder == kReference) {
+                reference_ms = median_ms;
+                reference_sah = stats.sah_cost;
+            }
+            std::printf("%-18s %10zu %-16s %4zu %10.2f %10.2f %10.2f %8s %9.2f %9s %9llu %9llu %5u %7.1f %7.1f  %s\n",
+                        scene.name.c_str(), triangles, info.name, times_ms.size(), median_ms,
                         *std::min_element(times_ms.begin(), times_ms.end()),
-                        *std::max_element(times_ms.begin(), times_ms.end()), stats.sah_cost,
+                        *std::max_element(times_ms.begin(), times_ms.end()),
+                        ratio_text(median_ms, reference_ms).c_str(), stats.sah_cost,
+                        ratio_text(stats.sah_cost, reference_sah).c_str(),
                         static_cast<unsigned long long>(stats.node_count),
                         static_cast<unsigned long long>(stats.leaf_count), stats.max_depth,
                         static_cast<double>(stats.memory_bytes) * per_tri,
@@ -335,6 +350,34 @@ size_t run_scene(aacbvh_context *ctx, const Scene &scene, const Options &opt) {
         aacbvh_bvh_destroy(bvh);
     }
     return mismatches;
+}
+
+/// What the table's columns mean, printed under it for readers new to BVHs.
+void print_legend(const Options &opt, uint32_t threads) {
+    std::printf(
+        "\ncolumns:\n"
+        "  triangles       triangles in the scene\n"
+        "  builder         the BVH builder (AACBVH_BUILDER_*); sweep-sah, top-down full-sweep\n"
+        "                  SAH, is the quality reference and runs first\n"
+        "  runs            builds timed (at most --runs %d; fewer once a builder's builds\n"
+        "                  on a scene took --time-budget %.0f s)\n"
+        "  median/min/max ms  wall time of aacbvh_bvh_build over those runs, %u thread(s)\n"
+        "  ms/sweep        median build time / sweep-sah's on the same scene: 0.25 builds\n"
+        "                  4 times as fast (- when sweep-sah did not run)\n"
+        "  SAH cost        the tree's expected cost of tracing a ray through it (1.2 per node\n"
+        "                  visited, 1 per triangle tested, for rays crossing the scene at\n"
+        "                  random): lower means faster rays\n"
+        "  SAH/sweep       SAH cost / sweep-sah's on the same scene: 1.05 is a tree 5%% more\n"
+        "                  expensive to trace, below 1 a better one than sweep-sah's\n"
+        "  nodes, leaves, depth  size of the binary tree and its longest root-to-leaf path\n"
+        "  B/tri, peak/tri bytes per triangle the finished BVH holds, and the build held at\n"
+        "                  its peak\n"
+        "  rays            the correctness check of %zu random rays: a scene's first row\n"
+        "                  shows its hits (ref hits/rays), the others 'same' when every\n"
+        "                  closest hit agrees with it; 'N DIFFER' fails the demo\n"
+        "Reading it: a good builder for a given budget has a low ms/sweep and a SAH/sweep\n"
+        "near 1; AAC aims at sweep-sah's tree quality in a fraction of its build time.\n",
+        opt.runs, opt.time_budget_s, threads, opt.ray_count);
 }
 
 } // namespace
@@ -365,9 +408,9 @@ int main(int argc, char **argv) {
     }
     std::printf("libaacbvh %s, %u thread(s), up to %d run(s) per build, %zu check rays\n",
                 aacbvh_version_string(), aacbvh_context_thread_count(ctx), opt.runs, opt.ray_count);
-    std::printf("%-18s %10s %-16s %4s %10s %10s %10s %9s %9s %9s %5s %7s %7s  %s\n", "scene",
-                "triangles", "builder", "runs", "median ms", "min ms", "max ms", "SAH cost",
-                "nodes", "leaves", "depth", "B/tri", "peak/tri", "rays");
+    std::printf("%-18s %10s %-16s %4s %10s %10s %10s %8s %9s %9s %9s %9s %5s %7s %7s  %s\n", "scene",
+                "triangles", "builder", "runs", "median ms", "min ms", "max ms", "ms/sweep", "SAH cost",
+                "SAH/sweep", "nodes", "leaves", "depth", "B/tri", "peak/tri", "rays");
     std::fflush(stdout);
 
     const auto start = std::chrono::steady_clock::now();
@@ -396,7 +439,9 @@ int main(int argc, char **argv) {
     } catch (const Failure &) {
         exit_code = 1;
     }
+    const uint32_t threads = aacbvh_context_thread_count(ctx);
     aacbvh_context_destroy(ctx);
+    print_legend(opt, threads);
 
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (exit_code == 0 && mismatches != 0) {

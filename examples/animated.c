@@ -18,6 +18,9 @@
 #define _POSIX_C_SOURCE 200809L /* clock_gettime */
 #include <aacbvh/aacbvh.h>
 
+#include "random.h"
+#include "scene.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -26,109 +29,45 @@
 
 #define PI 3.14159265358979323846
 
-typedef struct mesh {
-    float *vertices; /* x, y, z per vertex */
-    size_t vertex_count, vertex_capacity;
-    uint32_t *indices; /* three per triangle */
-    size_t triangle_count, triangle_capacity;
-} mesh;
-
 static double now_ms(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return 1e3 * (double)ts.tv_sec + 1e-6 * (double)ts.tv_nsec;
 }
 
-static int add_vertex(mesh *m, float x, float y, float z) {
-    if (m->vertex_count == m->vertex_capacity) {
-        size_t cap = m->vertex_capacity ? 2 * m->vertex_capacity : 1024;
-        float *v = (float *)realloc(m->vertices, cap * 3 * sizeof(float));
-        if (!v) return 0;
-        m->vertices = v;
-        m->vertex_capacity = cap;
-    }
-    m->vertices[3 * m->vertex_count + 0] = x;
-    m->vertices[3 * m->vertex_count + 1] = y;
-    m->vertices[3 * m->vertex_count + 2] = z;
-    ++m->vertex_count;
-    return 1;
-}
-
-static int add_triangle(mesh *m, uint32_t a, uint32_t b, uint32_t c) {
-    if (m->triangle_count == m->triangle_capacity) {
-        size_t cap = m->triangle_capacity ? 2 * m->triangle_capacity : 1024;
-        uint32_t *t = (uint32_t *)realloc(m->indices, cap * 3 * sizeof(uint32_t));
-        if (!t) return 0;
-        m->indices = t;
-        m->triangle_capacity = cap;
-    }
-    m->indices[3 * m->triangle_count + 0] = a;
-    m->indices[3 * m->triangle_count + 1] = b;
-    m->indices[3 * m->triangle_count + 2] = c;
-    ++m->triangle_count;
-    return 1;
-}
-
 /* A bumpy upright tube (a tentacle) of about `triangles` triangles, 4 units
  * tall: rings x segments quads, closed around. */
-static int make_tube(size_t triangles, mesh *m) {
+static int make_tube(size_t triangles, scene_mesh *m) {
     size_t segments = (size_t)sqrt((double)triangles / 8.0);
     size_t rings, r, s;
+    float *v;
+    uint32_t *t;
     if (segments < 8) segments = 8;
     rings = triangles / (2 * segments);
     if (rings < 2) rings = 2;
+    m->vertex_count = (rings + 1) * segments;
+    m->triangle_count = 2 * rings * segments;
+    m->vertices = v = (float *)malloc(3 * m->vertex_count * sizeof(float));
+    m->indices = t = (uint32_t *)malloc(3 * m->triangle_count * sizeof(uint32_t));
+    if (!v || !t) return 0;
     for (r = 0; r <= rings; ++r) {
         double h = (double)r / (double)rings;
-        for (s = 0; s < segments; ++s) {
+        for (s = 0; s < segments; ++s, v += 3) {
             double a = 2.0 * PI * (double)s / (double)segments;
             double radius = 0.5 * (1.0 - 0.6 * h) * (1.0 + 0.08 * sin(7.0 * a) * sin(23.0 * h));
-            if (!add_vertex(m, (float)(radius * cos(a)), (float)(4.0 * h), (float)(radius * sin(a)))) return 0;
+            v[0] = (float)(radius * cos(a));
+            v[1] = (float)(4.0 * h);
+            v[2] = (float)(radius * sin(a));
         }
     }
     for (r = 0; r < rings; ++r)
-        for (s = 0; s < segments; ++s) {
+        for (s = 0; s < segments; ++s, t += 6) {
             uint32_t a = (uint32_t)(r * segments + s), b = (uint32_t)(r * segments + (s + 1) % segments);
             uint32_t c = a + (uint32_t)segments, d = b + (uint32_t)segments;
-            if (!add_triangle(m, a, b, d) || !add_triangle(m, a, d, c)) return 0;
+            t[0] = a, t[1] = b, t[2] = d;
+            t[3] = a, t[4] = d, t[5] = c;
         }
     return 1;
-}
-
-/* The triangles of an OBJ file: "v x y z" and "f a b c ..." lines (polygons
- * split by fan, "a/b/c" and negative indices accepted), the rest ignored. */
-static int load_obj(const char *path, mesh *m) {
-    char line[4096];
-    FILE *file = fopen(path, "r");
-    if (!file) return 0;
-    while (fgets(line, sizeof line, file)) {
-        if (line[0] == 'v' && line[1] == ' ') {
-            char *p = line + 2;
-            float x = strtof(p, &p), y = strtof(p, &p), z = strtof(p, &p);
-            if (!add_vertex(m, x, y, z)) break;
-        } else if (line[0] == 'f' && line[1] == ' ') {
-            uint32_t first = 0, prev = 0;
-            int k = 0;
-            char *p = line + 2;
-            for (;;) {
-                char *end;
-                long i = strtol(p, &end, 10);
-                if (end == p) break;
-                p = end;
-                while (*p && *p != ' ' && *p != '\t' && *p != '\n' && *p != '\r') ++p; /* skip /vt/vn */
-                i = i < 0 ? (long)m->vertex_count + i : i - 1;
-                if (i < 0 || (size_t)i >= m->vertex_count) {
-                    fclose(file);
-                    return 0;
-                }
-                if (k == 0) first = (uint32_t)i;
-                else if (k >= 2 && !add_triangle(m, first, prev, (uint32_t)i)) break;
-                prev = (uint32_t)i;
-                ++k;
-            }
-        }
-    }
-    fclose(file);
-    return m->triangle_count > 0;
 }
 
 /* Bounds of the rest pose, for the deformation and the check rays. */
@@ -137,14 +76,8 @@ typedef struct bounds {
 } bounds;
 
 static bounds mesh_bounds(const float *v, size_t n) {
-    bounds b = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
-    size_t i;
-    int a;
-    for (i = 0; i < n; ++i)
-        for (a = 0; a < 3; ++a) {
-            if (v[3 * i + a] < b.lo[a]) b.lo[a] = v[3 * i + a];
-            if (v[3 * i + a] > b.hi[a]) b.hi[a] = v[3 * i + a];
-        }
+    bounds b;
+    scene_bounds(v, n, b.lo, b.hi);
     return b;
 }
 
@@ -211,24 +144,23 @@ static int check(aacbvh_status status, const char *what, const aacbvh_bvh *bvh) 
 
 /* Rays through the refitted tree and through a fresh build over the same
  * vertices must agree: same hit or miss, distances equal up to rounding. */
-static int check_against_fresh_build(aacbvh_context *ctx, const aacbvh_bvh *bvh, const mesh *m,
+static int check_against_fresh_build(aacbvh_context *ctx, const aacbvh_bvh *bvh, const scene_mesh *m,
                                      aacbvh_builder builder) {
     enum { RAYS = 4096 };
     aacbvh_bvh *fresh = NULL;
     aacbvh_ray *rays = (aacbvh_ray *)malloc(RAYS * sizeof *rays);
     aacbvh_hit *a = (aacbvh_hit *)malloc(RAYS * sizeof *a), *b = (aacbvh_hit *)malloc(RAYS * sizeof *b);
     bounds box = mesh_bounds(m->vertices, m->vertex_count);
-    unsigned long long state = 12345;
+    splitmix64 rng = {12345};
     size_t i, hits = 0, bad = 0;
     int ok = 0, k;
     if (!rays || !a || !b) goto done;
+    /* Origins anywhere in the box grown by its size on each side, aimed at
+     * random points of the box: most rays hit, from every direction. */
     for (i = 0; i < RAYS; ++i) {
         for (k = 0; k < 3; ++k) {
-            double ext = box.hi[k] - box.lo[k], u, w;
-            state = state * 6364136223846793005ULL + 1442695040888963407ULL;
-            u = (double)(state >> 11) / 9007199254740992.0;
-            state = state * 6364136223846793005ULL + 1442695040888963407ULL;
-            w = (double)(state >> 11) / 9007199254740992.0;
+            double ext = box.hi[k] - box.lo[k];
+            double u = splitmix64_uniform(&rng), w = splitmix64_uniform(&rng);
             rays[i].org[k] = (float)(box.lo[k] - ext + 3.0 * ext * u);
             rays[i].dir[k] = (float)(box.lo[k] + ext * w) - rays[i].org[k];
         }
@@ -265,7 +197,8 @@ int main(int argc, char **argv) {
     size_t triangles = 500000;
     const char *scene = NULL, *builder_name = "aac-fast";
     aacbvh_builder builder = AACBVH_BUILDER_AAC_FAST;
-    mesh m;
+    scene_mesh m;
+    char err[512];
     float *rest = NULL;
     bounds rest_box;
     aacbvh_context *ctx = NULL;
@@ -302,8 +235,8 @@ int main(int argc, char **argv) {
         return 2;
     }
 
-    if (scene ? !load_obj(scene, &m) : !make_tube(triangles, &m)) {
-        fprintf(stderr, "animated: cannot %s %s\n", scene ? "load" : "generate", scene ? scene : "the mesh");
+    if (scene ? !scene_mesh_load_obj(scene, &m, err, sizeof err) : !make_tube(triangles, &m)) {
+        fprintf(stderr, "animated: %s\n", scene ? err : "out of memory generating the mesh");
         goto done;
     }
     rest = (float *)malloc(m.vertex_count * 3 * sizeof(float));
@@ -391,8 +324,7 @@ int main(int argc, char **argv) {
 done:
     aacbvh_bvh_destroy(bvh);
     aacbvh_context_destroy(ctx);
-    free(m.vertices);
-    free(m.indices);
+    scene_mesh_free(&m);
     free(rest);
     free(refit_ms);
     free(stats_ms);

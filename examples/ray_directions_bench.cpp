@@ -17,10 +17,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <random>
 #include <string>
 #include <vector>
 
+#include "random.h"
 #include "scene.h"
 
 #ifndef AACBVH_SCENES_DIR
@@ -91,30 +91,20 @@ int main(int argc, char **argv) {
     // Origins uniform in the middle 80% of the scene's box; axis-parallel
     // rays cycle through +x, -x, +y, -y, +z, -z (the other components exactly
     // zero); oblique rays take uniform random directions on the sphere.
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t i = 0; i < scene.vertex_count(); ++i)
-        for (int k = 0; k < 3; ++k) {
-            lo[k] = std::min(lo[k], scene.vertices[3 * i + k]);
-            hi[k] = std::max(hi[k], scene.vertices[3 * i + k]);
-        }
-    std::mt19937_64 rng(7);
-    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-    std::normal_distribution<float> gauss(0.0f, 1.0f);
+    float lo[3], hi[3];
+    scene_bounds(scene.vertices.data(), scene.vertex_count(), lo, hi);
+    SplitMix64 random(7);
     std::vector<aacbvh_ray> axis_rays(opt.rays), oblique_rays(opt.rays);
     for (size_t i = 0; i < opt.rays; ++i) {
         aacbvh_ray &a = axis_rays[i];
         aacbvh_ray &o = oblique_rays[i];
-        for (int k = 0; k < 3; ++k) a.org[k] = o.org[k] = lo[k] + (hi[k] - lo[k]) * (0.1f + 0.8f * unit(rng));
+        for (int k = 0; k < 3; ++k)
+            a.org[k] = o.org[k] = lo[k] + (hi[k] - lo[k]) * (0.1f + 0.8f * random.uniform_float());
         a.tmin = o.tmin = 0.0f;
         a.tmax = o.tmax = INFINITY;
         a.dir[0] = a.dir[1] = a.dir[2] = 0.0f;
         a.dir[(i / 2) % 3] = (i % 2) ? -1.0f : 1.0f;
-        float len = 0.0f;
-        do {
-            for (int k = 0; k < 3; ++k) o.dir[k] = gauss(rng);
-            len = std::sqrt(o.dir[0] * o.dir[0] + o.dir[1] * o.dir[1] + o.dir[2] * o.dir[2]);
-        } while (len < 1e-3f);
-        for (int k = 0; k < 3; ++k) o.dir[k] /= len;
+        random.direction(o.dir);
     }
 
     aacbvh_context *ctx = nullptr;

@@ -1,4 +1,5 @@
 #include "scene.h"
+#include "random.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -9,6 +10,8 @@
 #include <fstream>
 #include <limits>
 #include <cctype>
+#include <cstdio>
+#include <exception>
 
 #ifdef AACBVH_HAVE_TINYOBJLOADER
 #include <tiny_obj_loader.h>
@@ -147,17 +150,10 @@ bool load_obj_builtin(const std::string &path, Scene &out, std::string &err) {
 
 #endif
 
-/// Uniform numbers from SplitMix64 (scene.h).
-struct Random : SplitMix64 {
-    /// Uniform in [0, 1).
-    double uniform() { return static_cast<double>(next() >> 11) * (1.0 / 9007199254740992.0); }
-    double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
-};
-
 // Value noise: a random value per lattice point, smoothly interpolated.
 double lattice_value(int64_t x, int64_t z, uint64_t seed) {
-    Random r{{seed ^ (static_cast<uint64_t>(x) * 0x8CB92BA72F3D8DD7ull) ^
-             (static_cast<uint64_t>(z) * 0xD6E8FEB86659FD93ull)}};
+    SplitMix64 r(seed ^ (static_cast<uint64_t>(x) * 0x8CB92BA72F3D8DD7ull) ^
+                 (static_cast<uint64_t>(z) * 0xD6E8FEB86659FD93ull));
     return r.uniform();
 }
 
@@ -263,7 +259,7 @@ bool load_obj(const std::string &path, Scene &out, std::string &err) {
     return ok;
 }
 
-Scene make_procedural_scene(const ProceduralConfig &config) {
+Scene make_procedural_scene(const scene_procedural_config &config) {
     Scene scene;
     const uint32_t cells = std::max<uint32_t>(config.terrain_cells, 1);
     const uint32_t rings = std::max<uint32_t>(config.sphere_rings, 3);
@@ -274,7 +270,7 @@ Scene make_procedural_scene(const ProceduralConfig &config) {
 
     add_terrain(scene, cells, config.seed);
 
-    Random random{{config.seed * 0x2545F4914F6CDD1Dull + 17}};
+    SplitMix64 random(config.seed * 0x2545F4914F6CDD1Dull + 17);
     for (uint32_t k = 0; k < config.sphere_count; ++k) {
         // Log-uniform radii give a few large spheres and many small ones,
         // with a cluster of small ones near the centre.
@@ -303,4 +299,83 @@ std::vector<std::string> default_scene_paths(const char *scenes_dir) {
     }
     std::sort(paths.begin(), paths.end());
     return paths;
+}
+
+// ---- the C face (scene.h): copies into malloc'd arrays; no exception leaves ----
+
+namespace {
+
+void set_error(char *err, size_t err_size, const std::string &message) {
+    if (err != nullptr && err_size > 0)
+        std::snprintf(err, err_size, "%s", message.c_str());
+}
+
+/// Moves a Scene's arrays into `out` (malloc'd, for scene_mesh_free).
+bool to_mesh(const Scene &scene, scene_mesh *out) {
+    *out = scene_mesh{nullptr, 0, nullptr, 0};
+    // malloc(0) may return NULL: ask for at least one element.
+    float *v = static_cast<float *>(std::malloc(std::max<size_t>(scene.vertices.size(), 1) * sizeof(float)));
+    uint32_t *t = static_cast<uint32_t *>(std::malloc(std::max<size_t>(scene.indices.size(), 1) * sizeof(uint32_t)));
+    if (v == nullptr || t == nullptr) {
+        std::free(v);
+        std::free(t);
+        return false;
+    }
+    std::copy(scene.vertices.begin(), scene.vertices.end(), v);
+    std::copy(scene.indices.begin(), scene.indices.end(), t);
+    *out = scene_mesh{v, scene.vertex_count(), t, scene.triangle_count()};
+    return true;
+}
+
+} // namespace
+
+extern "C" scene_procedural_config scene_procedural_defaults(void) { return ProceduralConfig(); }
+
+extern "C" int scene_mesh_load_obj(const char *path, scene_mesh *out, char *err, size_t err_size) {
+    *out = scene_mesh{nullptr, 0, nullptr, 0};
+    try {
+        Scene scene;
+        std::string message;
+        if (!load_obj(path, scene, message)) {
+            set_error(err, err_size, message);
+            return 0;
+        }
+        if (!to_mesh(scene, out)) {
+            set_error(err, err_size, std::string(path) + ": out of memory");
+            return 0;
+        }
+        return 1;
+    } catch (const std::exception &e) {  // bad_alloc, or a loader's own
+        set_error(err, err_size, std::string(path) + ": " + e.what());
+        return 0;
+    }
+}
+
+extern "C" int scene_mesh_procedural(const scene_procedural_config *config, scene_mesh *out) {
+    *out = scene_mesh{nullptr, 0, nullptr, 0};
+    try {
+        return to_mesh(make_procedural_scene(config ? *config : ProceduralConfig()), out) ? 1 : 0;
+    } catch (const std::exception &) {
+        return 0;
+    }
+}
+
+extern "C" void scene_mesh_free(scene_mesh *mesh) {
+    if (mesh == nullptr)
+        return;
+    std::free(mesh->vertices);
+    std::free(mesh->indices);
+    *mesh = scene_mesh{nullptr, 0, nullptr, 0};
+}
+
+extern "C" void scene_bounds(const float *xyz, size_t vertex_count, float lower[3], float upper[3]) {
+    for (int k = 0; k < 3; ++k) {
+        lower[k] = vertex_count ? std::numeric_limits<float>::infinity() : 0.0f;
+        upper[k] = vertex_count ? -std::numeric_limits<float>::infinity() : 0.0f;
+    }
+    for (size_t i = 0; i < vertex_count; ++i)
+        for (int k = 0; k < 3; ++k) {
+            lower[k] = std::min(lower[k], xyz[3 * i + k]);
+            upper[k] = std::max(upper[k], xyz[3 * i + k]);
+        }
 }

@@ -7,6 +7,9 @@
 #       --csv docs/evaluation.csv --json docs/evaluation.json \
 #       --svg docs/evaluation.svg --markdown docs/EVALUATION.md
 #
+# To redraw the plot (or the other outputs) from the last run's data, without
+# running the benchmark: aacbvh-bench --replot docs/evaluation.json --svg docs/evaluation.svg
+#
 # Usage: scripts/evaluation.sh [BUILD_DIR] [extra aacbvh-bench options]
 # BUILD_DIR defaults to build-bench; it is configured and built when needed.
 set -eu

@@ -4,7 +4,8 @@
 // primary, shadow and diffuse rays, absolute and relative to full-sweep SAH,
 // single-thread Mrays/s of aacbvh_bvh_intersect / aacbvh_bvh_occluded, and bytes
 // per triangle; Embree 3 side by side when compiled in. Writes CSV, JSON, an SVG
-// plot and a Markdown report on request. Uses only the public C API.
+// plot and a Markdown report on request, or (--replot) writes them again from a
+// JSON output without running anything. Uses only the public C API.
 //
 //   aacbvh-bench [options] [scene.obj ...]      (aacbvh-bench --help)
 #include <aacbvh/aacbvh.h>
@@ -72,6 +73,7 @@ struct Options {
     int keep_build_memory = 0; ///< --keep-build-memory: rebuilds reuse the previous build's memory
     std::string csv, json, svg, markdown;
     std::string preview_dir;  ///< --preview DIR: a PGM image of the primary hits per scene
+    std::string replot;       ///< --replot FILE: results from this JSON instead of a run
 };
 
 void usage(FILE *out) {
@@ -106,6 +108,9 @@ void usage(FILE *out) {
         "  --csv FILE, --json FILE, --svg FILE, --markdown FILE   write the results\n"
         "  --preview DIR     write DIR/<scene>.pgm, the primary hits shaded by the cosine\n"
         "                    to the light (to check the cameras)\n"
+        "  --replot FILE     run nothing: read the results from FILE (a --json output)\n"
+        "                    and write the outputs asked for from them, e.g.\n"
+        "                    --replot docs/evaluation.json --svg docs/evaluation.svg\n"
         "  --self-check      read the written files back and check their syntax and the\n"
         "                    trees; exit 1 on any failure (for tests)\n"
         "  -h, --help        this text\n",
@@ -236,6 +241,10 @@ bool parse_args(int argc, char **argv, Options &opt) {
                 return false;
         } else if (a == "--self-check") {
             opt.self_check = true;
+        } else if (a == "--replot") {
+            const char *s = next("--replot");
+            if (!s) return false;
+            opt.replot = s;
         } else if (a == "--csv" || a == "--json" || a == "--svg" || a == "--markdown") {
             const char *s = next(a.c_str());
             if (!s) return false;
@@ -628,13 +637,10 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
     return res;
 }
 
-}  // namespace
-
-int main(int argc, char **argv) {
-    Options opt;
-    if (!parse_args(argc, argv, opt)) return 2;
-
-    RunInfo info;
+/// The benchmark itself: every scene and builder, printed as it goes. false
+/// when nothing could run.
+bool run_benchmark(int argc, char **argv, const Options &opt, Checker &check, RunInfo &info,
+                   std::vector<SceneResult> &results) {
     for (int i = 0; i < argc; ++i) {
         std::string a = argv[i];
         if (i == 0) a = "aacbvh-bench";
@@ -664,11 +670,8 @@ int main(int argc, char **argv) {
     Contexts contexts;
     if (!contexts.get(1)) {
         std::fprintf(stderr, "aacbvh-bench: cannot create a context\n");
-        return 1;
+        return false;
     }
-    Checker check;
-    check.enabled = opt.self_check;
-    std::vector<SceneResult> results;
     for (const std::string &spec : specs) {
         Scene scene;
         std::string err;
@@ -686,7 +689,29 @@ int main(int argc, char **argv) {
     }
     if (results.empty()) {
         std::fprintf(stderr, "aacbvh-bench: no scene could be loaded\n");
-        return 1;
+        return false;
+    }
+    return true;
+}
+
+}  // namespace
+
+int main(int argc, char **argv) {
+    Options opt;
+    if (!parse_args(argc, argv, opt)) return 2;
+
+    Checker check;
+    check.enabled = opt.self_check;
+    RunInfo info;
+    std::vector<SceneResult> results;
+    if (opt.replot.empty()) {
+        if (!run_benchmark(argc, argv, opt, check, info, results)) return 1;
+    } else {
+        std::string err;
+        if (!read_json(opt.replot, results, info, err)) {
+            std::fprintf(stderr, "aacbvh-bench: %s\n", err.c_str());
+            return 1;
+        }
     }
 
     struct Output {

@@ -1,4 +1,5 @@
 #include "rays.h"
+#include "random.h"
 #include "scene.h"
 
 #include <algorithm>
@@ -23,11 +24,6 @@ Vec normalize(Vec a) {
     const float len = std::sqrt(dot(a, a));
     return len > 0.0f ? a * (1.0f / len) : Vec{0.0f, 0.0f, 0.0f};
 }
-
-/// Uniform floats from SplitMix64 (scene.h): fixed and portable, unlike std:: distributions.
-struct Rng : SplitMix64 {
-    float uniform() { return float(next() >> 40) * (1.0f / 16777216.0f); }  // [0, 1)
-};
 
 /// A camera of the table: eye, target, light as fractions of the scene bounds
 /// (0 = lower, 1 = upper on each axis), so the table survives rescaled copies.
@@ -66,19 +62,7 @@ float Bounds::diagonal() const {
 
 Bounds vertex_bounds(const std::vector<float> &xyz) {
     Bounds b;
-    for (int k = 0; k < 3; ++k) {
-        b.lower[k] = std::numeric_limits<float>::infinity();
-        b.upper[k] = -std::numeric_limits<float>::infinity();
-    }
-    for (size_t i = 0; i + 2 < xyz.size(); i += 3) {
-        for (int k = 0; k < 3; ++k) {
-            b.lower[k] = std::min(b.lower[k], xyz[i + k]);
-            b.upper[k] = std::max(b.upper[k], xyz[i + k]);
-        }
-    }
-    if (xyz.empty()) {
-        for (int k = 0; k < 3; ++k) b.lower[k] = b.upper[k] = 0.0f;
-    }
+    scene_bounds(xyz.data(), xyz.size() / 3, b.lower, b.upper);
     return b;
 }
 
@@ -155,7 +139,7 @@ void make_secondary_rays(const std::vector<aacbvh_ray> &primary, const std::vect
                          std::vector<aacbvh_ray> &shadow, std::vector<aacbvh_ray> &diffuse) {
     shadow.clear();
     diffuse.clear();
-    Rng rng{{seed}};
+    SplitMix64 rng(seed);
     const float offset = 1e-5f * scene_diagonal;
     const Vec light = make(camera.light);
     for (size_t i = 0; i < primary.size(); ++i) {
@@ -184,7 +168,7 @@ void make_secondary_rays(const std::vector<aacbvh_ray> &primary, const std::vect
         }
 
         // Cosine-weighted direction around n (Malley's method).
-        const float u1 = rng.uniform(), u2 = rng.uniform();
+        const float u1 = rng.uniform_float(), u2 = rng.uniform_float();
         const float r = std::sqrt(u1), phi = 2.0f * 3.14159265f * u2;
         const Vec t0 = normalize(std::fabs(n.x) > 0.5f ? cross(n, Vec{0, 1, 0}) : cross(n, Vec{1, 0, 0}));
         const Vec t1 = cross(n, t0);

@@ -1,6 +1,7 @@
 #include "report.h"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cstdarg>
 #include <cstring>
@@ -301,132 +302,264 @@ bool write_json(const std::string &path, const std::vector<SceneResult> &scenes,
 }
 
 // ---------------------------------------------------------------------------
-// SVG: build time (x, log) against ray cost relative to sweep SAH (y)
+// SVG: a panel per scene, build time (x, log) against ray cost (y), both
+// relative to sweep SAH on that scene, with the scene's Pareto front
 // ---------------------------------------------------------------------------
+
+std::vector<size_t> pareto_front(const std::vector<double> &x, const std::vector<double> &y) {
+    std::vector<size_t> order;
+    for (size_t i = 0; i < x.size() && i < y.size(); ++i)
+        if (!std::isnan(x[i]) && !std::isnan(y[i])) order.push_back(i);
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+        if (x[a] != x[b]) return x[a] < x[b];
+        return y[a] != y[b] ? y[a] < y[b] : a < b;
+    });
+    // In that order a point is beaten exactly when an earlier one is at least as low.
+    std::vector<size_t> front;
+    for (size_t i : order)
+        if (front.empty() || y[i] < y[front.back()]) front.push_back(i);
+    return front;
+}
+
+namespace {
+
+const char *const kColors[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd",
+                               "#8c564b", "#e377c2", "#17becf", "#7f7f7f", "#bcbd22"};
+
+/// Builder `b`'s marker: a shape and a colour of its own (8 shapes, 10 colours).
+std::string svg_marker(size_t b, double x, double y) {
+    const char *color = kColors[b % 10];
+    const double r = 5;
+    switch (b % 8) {
+    case 0: return format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"%.1f\" fill=\"%s\"/>", x, y, r, color);
+    case 1:
+        return format("<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\" fill=\"%s\"/>", x - r + 0.5,
+                      y - r + 0.5, 2 * r - 1, 2 * r - 1, color);
+    case 2:
+        return format("<polygon points=\"%.1f,%.1f %.1f,%.1f %.1f,%.1f\" fill=\"%s\"/>", x, y - r - 1, x + r + 1, y + r,
+                      x - r - 1, y + r, color);
+    case 3:
+        return format("<polygon points=\"%.1f,%.1f %.1f,%.1f %.1f,%.1f %.1f,%.1f\" fill=\"%s\"/>", x, y - r - 1,
+                      x + r + 1, y, x, y + r + 1, x - r - 1, y, color);
+    case 4:
+        return format("<polygon points=\"%.1f,%.1f %.1f,%.1f %.1f,%.1f\" fill=\"%s\"/>", x, y + r + 1, x + r + 1, y - r,
+                      x - r - 1, y - r, color);
+    case 5:
+        return format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"%.1f\" fill=\"white\" stroke=\"%s\" stroke-width=\"2.2\"/>",
+                      x, y, r - 0.5, color);
+    case 6:
+        return format("<path d=\"M%.1f %.1fL%.1f %.1fM%.1f %.1fL%.1f %.1f\" stroke=\"%s\" stroke-width=\"2.6\"/>",
+                      x - r, y - r, x + r, y + r, x - r, y + r, x + r, y - r, color);
+    default:
+        return format("<path d=\"M%.1f %.1fL%.1f %.1fM%.1f %.1fL%.1f %.1f\" stroke=\"%s\" stroke-width=\"2.6\"/>",
+                      x - r - 1, y, x + r + 1, y, x, y - r - 1, x, y + r + 1, color);
+    }
+}
+
+/// The 1-2-5 value at or below (down) or at or above (!down) v > 0.
+double round_125(double v, bool down) {
+    const double decade = std::pow(10.0, std::floor(std::log10(v)));
+    const double steps[] = {1, 2, 5, 10};
+    if (down) {
+        for (int k = 3; k >= 0; --k)
+            if (steps[k] * decade <= v * (1 + 1e-9)) return steps[k] * decade;
+        return decade;
+    }
+    for (double s : steps)
+        if (s * decade >= v * (1 - 1e-9)) return s * decade;
+    return 10 * decade;
+}
+
+}  // namespace
 
 bool write_svg(const std::string &path, const std::vector<SceneResult> &scenes, const RunInfo &info,
                std::string &err) {
     const uint32_t t0 = info.threads.empty() ? 1 : info.threads[0];
     struct Point {
-        double x, y;
-        size_t builder, scene;
+        double x, y;   ///< build time and ray cost, each over sweep SAH's on the scene
+        size_t builder;
     };
-    std::vector<std::string> builders;  // labels in first-seen order
-    std::vector<Point> points;
+    std::vector<std::string> builders;  // labels in first-seen order: marker b is builders[b]
+    std::vector<std::vector<Point>> points(scenes.size());
+    std::vector<double> reference_ms(scenes.size(), kNaN);
+    double xlo = 1, xhi = 1, ylo = 1, yhi = 1;  // (1, 1), sweep SAH itself, is always in view
     for (size_t si = 0; si < scenes.size(); ++si) {
+        const Row *ref = scenes[si].find("sweep-sah");
+        reference_ms[si] = ref ? ref->build_ms(t0) : kNaN;
+        if (!(reference_ms[si] > 0.0)) continue;  // nothing to be relative to
         for (const Row &r : scenes[si].rows) {
-            const double x = r.build_ms(t0), y = r.mean_rel_cost();
+            const double x = r.build_ms(t0) / reference_ms[si], y = r.mean_rel_cost();
             if (r.status != "ok" || !(x > 0.0) || std::isnan(y)) continue;
-            size_t b = std::find(builders.begin(), builders.end(), r.label) - builders.begin();
+            const size_t b = std::find(builders.begin(), builders.end(), r.label) - builders.begin();
             if (b == builders.size()) builders.push_back(r.label);
-            points.push_back({x, y, b, si});
+            points[si].push_back({x, y, b});
+            xlo = std::min(xlo, x), xhi = std::max(xhi, x);
+            ylo = std::min(ylo, y), yhi = std::max(yhi, y);
         }
     }
-    const double W = 960, H = 600, left = 80, right = 250, top = 50, bottom = 70;
-    const double pw = W - left - right, ph = H - top - bottom;
-    double xlo = 1e300, xhi = -1e300, ylo = 0.95, yhi = 1.05;
-    for (const Point &p : points) {
-        xlo = std::min(xlo, p.x);
-        xhi = std::max(xhi, p.x);
-        ylo = std::min(ylo, p.y);
-        yhi = std::max(yhi, p.y);
-    }
-    if (points.empty()) xlo = 1, xhi = 10;
-    const double lx0 = std::floor(std::log10(xlo)), lx1 = std::max(lx0 + 1, std::ceil(std::log10(xhi)));
-    const double ystep = (yhi - ylo) > 0.6 ? 0.2 : (yhi - ylo) > 0.25 ? 0.1 : 0.05;
-    ylo = std::floor(ylo / ystep - 0.25) * ystep;
-    yhi = std::ceil(yhi / ystep + 0.25) * ystep;
-    auto X = [&](double v) { return left + (std::log10(v) - lx0) / (lx1 - lx0) * pw; };
-    auto Y = [&](double v) { return top + (yhi - v) / (yhi - ylo) * ph; };
+    // Shared axes, so that panels compare at a glance: x from the 1-2-5 values
+    // around the data (log), y in steps of 0.1 or 0.2.
+    xlo = round_125(xlo, true);
+    xhi = round_125(xhi, false);
+    if (xhi <= xlo) xhi = xlo * 10;
+    const double ystep = yhi - ylo > 0.8 ? 0.2 : 0.1;
+    ylo = std::floor((ylo - 0.02) / ystep) * ystep;
+    yhi = std::ceil((yhi + 0.02) / ystep) * ystep;
 
-    static const char *const colors[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd",
-                                         "#8c564b", "#e377c2", "#17becf", "#7f7f7f", "#bcbd22"};
-    auto marker = [&](size_t shape, double x, double y, const char *color) {
-        const double r = 6;
-        switch (shape % 6) {
-        case 0: return format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"%.1f\" fill=\"%s\"/>", x, y, r, color);
-        case 1:
-            return format("<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\" fill=\"%s\"/>", x - r, y - r,
-                          2 * r, 2 * r, color);
-        case 2:
-            return format("<polygon points=\"%.1f,%.1f %.1f,%.1f %.1f,%.1f\" fill=\"%s\"/>", x, y - r - 1, x + r + 1,
-                          y + r, x - r - 1, y + r, color);
-        case 3:
-            return format("<polygon points=\"%.1f,%.1f %.1f,%.1f %.1f,%.1f %.1f,%.1f\" fill=\"%s\"/>", x, y - r - 2,
-                          x + r + 2, y, x, y + r + 2, x - r - 2, y, color);
-        case 4:
-            return format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"%.1f\" fill=\"none\" stroke=\"%s\" "
-                          "stroke-width=\"2.5\"/>",
-                          x, y, r, color);
-        default:
-            return format("<path d=\"M%.1f %.1fL%.1f %.1fM%.1f %.1fL%.1f %.1f\" stroke=\"%s\" "
-                          "stroke-width=\"3\"/>",
-                          x - r, y - r, x + r, y + r, x - r, y + r, x + r, y - r, color);
-        }
-    };
+    // A grid of panels, the legend in the cell after the last.
+    const size_t cells = scenes.size() + 1, cols = std::min<size_t>(4, cells), rows = (cells + cols - 1) / cols;
+    const double cell_w = 300, cell_h = 260, margin = 16, head = 78, foot = 92;
+    const double pad_l = 50, pad_r = 14, pad_t = 44, pad_b = 44;  // plot area within a cell
+    const double pw = cell_w - pad_l - pad_r, ph = cell_h - pad_t - pad_b;
+    // At least four cells wide: the title and the caption need it.
+    const double W = 2 * margin + std::max<size_t>(cols, 4) * cell_w, H = head + rows * cell_h + foot;
 
     std::ostringstream o;
     o << format("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" viewBox=\"0 0 %.0f "
-                "%.0f\" font-family=\"sans-serif\" font-size=\"13\">\n",
+                "%.0f\" font-family=\"sans-serif\" font-size=\"11\">\n",
                 W, H, W, H);
     o << format("<rect x=\"0\" y=\"0\" width=\"%.0f\" height=\"%.0f\" fill=\"white\"/>\n", W, H);
-    o << format("<text x=\"%.1f\" y=\"28\" text-anchor=\"middle\" font-size=\"16\" font-weight=\"bold\">"
-                "Build time against ray cost (%u thread%s), one point per builder and scene</text>\n",
-                left + pw / 2, t0, t0 == 1 ? "" : "s");
-    // Grid and ticks.
-    for (double d = lx0; d <= lx1 + 1e-9; d += 1) {
-        for (int m = 1; m <= 9; ++m) {
-            const double v = std::pow(10.0, d) * m;
-            if (std::log10(v) > lx1 + 1e-9) break;
-            const double x = X(v);
-            o << format("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"%s\"/>\n", x, top, x,
-                        top + ph, m == 1 ? "#bbbbbb" : "#eeeeee");
-            if (m == 1 || m == 2 || m == 5) {
-                const std::string label = v >= 1 ? format("%.0f", v) : format("%g", v);
-                o << format("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"middle\">%s</text>\n", x, top + ph + 18,
-                            label.c_str());
+    o << format("<text x=\"%.1f\" y=\"28\" font-size=\"17\" font-weight=\"bold\">Which builder gives the best tree "
+                "for the build time you can spend?</text>\n",
+                margin);
+    o << format("<text x=\"%.1f\" y=\"50\" font-size=\"12\" fill=\"#444444\">One panel per scene, one point per "
+                "builder; both axes relative to full-sweep SAH on that scene (the dashed lines); the black "
+                "staircase is the scene's Pareto front.</text>\n",
+                margin);
+    o << format("<text x=\"%.1f\" y=\"68\" font-size=\"12\" fill=\"#444444\">%s, %s, %u hardware threads; build "
+                "times: median of %d runs on %u thread%s.</text>\n",
+                margin, xml_escape(info.date).c_str(), xml_escape(info.cpu).c_str(), info.hardware_threads, info.runs,
+                t0, t0 == 1 ? "" : "s");
+
+    for (size_t si = 0; si < scenes.size(); ++si) {
+        const SceneResult &s = scenes[si];
+        const double cx = margin + double(si % cols) * cell_w, cy = head + double(si / cols) * cell_h;
+        const double left = cx + pad_l, top = cy + pad_t;
+        auto X = [&](double v) { return left + std::log10(v / xlo) / std::log10(xhi / xlo) * pw; };
+        auto Y = [&](double v) { return top + (yhi - v) / (yhi - ylo) * ph; };
+        o << "<g>\n";
+        o << format("<text x=\"%.1f\" y=\"%.1f\" font-size=\"13\" font-weight=\"bold\">%s</text>\n", left, cy + 16,
+                    xml_escape(s.name).c_str());
+        const std::string sub = !(reference_ms[si] > 0.0)
+                                    ? std::string("no sweep SAH build: nothing to compare with")
+                                    : format("%llu triangles; sweep SAH built in %s ms",
+                                             (unsigned long long)s.triangles, ms(reference_ms[si]).c_str());
+        o << format("<text x=\"%.1f\" y=\"%.1f\" fill=\"#555555\">%s</text>\n", left, cy + 31, sub.c_str());
+        // Grid, ticks and the reference lines.
+        double last_label_x = -1e9;
+        for (double d = std::floor(std::log10(xlo)); d <= std::log10(xhi) + 1e-9; d += 1) {
+            for (int m : {1, 2, 5}) {
+                const double v = std::pow(10.0, d) * m;
+                if (v < xlo * (1 - 1e-9) || v > xhi * (1 + 1e-9)) continue;
+                const double x = X(v);
+                o << format("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"%s\"/>\n", x, top, x,
+                            top + ph, m == 1 ? "#cccccc" : "#eeeeee");
+                if (x - last_label_x < 22) continue;  // too close to the last label
+                last_label_x = x;
+                o << format("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"middle\" font-size=\"10\">%g</text>\n", x,
+                            top + ph + 13, v);
             }
         }
+        for (double v = ylo; v <= yhi + 1e-9; v += ystep) {
+            o << format("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#eeeeee\"/>\n", left, Y(v),
+                        left + pw, Y(v));
+            o << format("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"end\" font-size=\"10\">%.1f</text>\n", left - 5,
+                        Y(v) + 3.5, v);
+        }
+        o << format("<path d=\"M%.1f %.1fH%.1fM%.1f %.1fV%.1f\" stroke=\"#888888\" stroke-dasharray=\"5,4\"/>\n",
+                    left, Y(1.0), left + pw, X(1.0), top, top + ph);
+        o << format("<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\" fill=\"none\" stroke=\"#333333\"/>\n",
+                    left, top, pw, ph);
+        o << format("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"middle\" font-size=\"10\" fill=\"#444444\">build time "
+                    "/ sweep SAH's (log; left = faster)</text>\n",
+                    left + pw / 2, top + ph + 27);
+        o << format("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"middle\" font-size=\"10\" fill=\"#444444\" "
+                    "transform=\"rotate(-90 %.1f %.1f)\">ray cost / sweep SAH's (down = better)</text>\n",
+                    cx + 12, top + ph / 2, cx + 12, top + ph / 2);
+
+        // The front as a staircase: for a time budget x, its height is the best
+        // cost any build within that budget reached. Drawn under the markers.
+        const std::vector<Point> &pts = points[si];
+        std::vector<double> px, py;
+        for (const Point &p : pts) px.push_back(p.x), py.push_back(p.y);
+        const std::vector<size_t> front = pareto_front(px, py);
+        if (!front.empty()) {
+            std::string d = format("M%.1f %.1f", X(pts[front[0]].x), Y(pts[front[0]].y));
+            for (size_t k = 1; k < front.size(); ++k)
+                d += format("H%.1fV%.1f", X(pts[front[k]].x), Y(pts[front[k]].y));
+            d += format("H%.1f", left + pw);
+            o << "<path d=\"" << d << "\" fill=\"none\" stroke=\"black\" stroke-width=\"1.6\"/>\n";
+        }
+        for (const Point &p : pts) o << svg_marker(p.builder, X(p.x), Y(p.y)) << "\n";
+        // The front's builders by name. Each label goes to the first of eight
+        // places around its point that covers no marker and no label placed
+        // before it, else to the place that covers least.
+        using Box = std::array<double, 4>;  // x0, y0, x1, y1
+        std::vector<Box> taken;
+        for (const Point &p : pts) taken.push_back({X(p.x) - 6, Y(p.y) - 6, X(p.x) + 6, Y(p.y) + 6});
+        auto overlap = [](const Box &a, const Box &b) {
+            const double w = std::min(a[2], b[2]) - std::max(a[0], b[0]), h = std::min(a[3], b[3]) - std::max(a[1], b[1]);
+            return w > 0 && h > 0 ? w * h : 0.0;
+        };
+        for (size_t k : front) {
+            const std::string &label = builders[pts[k].builder];
+            const double w = 5.6 * double(label.size()), h = 10, x = X(pts[k].x), y = Y(pts[k].y);
+            // Baseline-left corners: right, above and below right, left, above
+            // and below left, centred above, centred below.
+            const double tries[8][2] = {{x + 8, y + 4},     {x + 5, y - 8},  {x + 5, y + 16},
+                                        {x - 8 - w, y + 4}, {x - 5 - w, y - 8}, {x - 5 - w, y + 16},
+                                        {x - w / 2, y - 9}, {x - w / 2, y + 18}};
+            Box best{};
+            double best_cover = 1e300;
+            for (const auto &t : tries) {
+                const double tx = std::min(std::max(t[0], left + 2), left + pw - w - 2);
+                const double ty = std::min(std::max(t[1], top + h + 2), top + ph - 3);
+                const Box box{tx, ty - h, tx + w, ty + 2};
+                double cover = 0;
+                for (const Box &q : taken) cover += overlap(box, q);
+                if (cover < best_cover) best_cover = cover, best = box;
+                if (cover == 0) break;
+            }
+            taken.push_back(best);
+            o << format("<text x=\"%.1f\" y=\"%.1f\" font-size=\"10\" stroke=\"white\" stroke-width=\"3\" "
+                        "paint-order=\"stroke\">%s</text>\n",
+                        best[0], best[3] - 2, xml_escape(label).c_str());
+        }
+        o << "</g>\n";
     }
-    for (double v = ylo; v <= yhi + 1e-9; v += ystep) {
-        const double y = Y(v);
-        o << format("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#dddddd\"/>\n", left, y,
-                    left + pw, y);
-        o << format("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"end\">%.2f</text>\n", left - 8, y + 4, v);
+
+    // Legend.
+    {
+        const size_t cell = scenes.size();
+        const double lx = margin + double(cell % cols) * cell_w + 24, ly0 = head + double(cell / cols) * cell_h + 16;
+        double ly = ly0;
+        o << format("<text x=\"%.1f\" y=\"%.1f\" font-size=\"13\" font-weight=\"bold\">builder</text>\n", lx, ly);
+        ly += 20;
+        for (size_t b = 0; b < builders.size(); ++b, ly += 17) {
+            o << svg_marker(b, lx + 6, ly - 4) << "\n";
+            o << format("<text x=\"%.1f\" y=\"%.1f\">%s</text>\n", lx + 20, ly, xml_escape(builders[b]).c_str());
+        }
+        ly += 6;
+        o << format("<path d=\"M%.1f %.1fH%.1f\" stroke=\"black\" stroke-width=\"1.6\"/>\n", lx, ly - 4, lx + 14);
+        o << format("<text x=\"%.1f\" y=\"%.1f\">Pareto front (labelled)</text>\n", lx + 20, ly);
+        ly += 17;
+        o << format("<path d=\"M%.1f %.1fH%.1f\" stroke=\"#888888\" stroke-dasharray=\"5,4\"/>\n", lx, ly - 4,
+                    lx + 14);
+        o << format("<text x=\"%.1f\" y=\"%.1f\">sweep SAH = 1</text>\n", lx + 20, ly);
     }
-    o << format("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#555555\" "
-                "stroke-dasharray=\"6,4\"/>\n",
-                left, Y(1.0), left + pw, Y(1.0));
-    o << format("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"end\" fill=\"#555555\">full-sweep SAH = 1</text>\n",
-                left + pw - 4, Y(1.0) - 5);
-    o << format("<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\" fill=\"none\" stroke=\"black\"/>\n",
-                left, top, pw, ph);
-    o << format("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"middle\">build time, ms (log scale, median of %d "
-                "runs, %u thread%s)</text>\n",
-                left + pw / 2, H - 22, info.runs, t0, t0 == 1 ? "" : "s");
-    o << format("<text x=\"20\" y=\"%.1f\" text-anchor=\"middle\" transform=\"rotate(-90 20 %.1f)\">ray cost "
-                "relative to full-sweep SAH (mean of primary, shadow, diffuse)</text>\n",
-                top + ph / 2, top + ph / 2);
-    // Points.
-    for (const Point &p : points)
-        o << marker(p.scene, X(p.x), Y(p.y), colors[p.builder % 10]) << "\n";
-    // Legend: colours are builders, shapes are scenes.
-    double ly = top + 10;
-    const double lx = left + pw + 20;
-    o << format("<text x=\"%.1f\" y=\"%.1f\" font-weight=\"bold\">builder (colour)</text>\n", lx, ly);
-    ly += 20;
-    for (size_t b = 0; b < builders.size(); ++b, ly += 20) {
-        o << format("<rect x=\"%.1f\" y=\"%.1f\" width=\"12\" height=\"12\" fill=\"%s\"/>\n", lx, ly - 10,
-                    colors[b % 10]);
-        o << format("<text x=\"%.1f\" y=\"%.1f\">%s</text>\n", lx + 20, ly, xml_escape(builders[b]).c_str());
-    }
-    ly += 12;
-    o << format("<text x=\"%.1f\" y=\"%.1f\" font-weight=\"bold\">scene (shape)</text>\n", lx, ly);
-    ly += 22;
-    for (size_t s = 0; s < scenes.size(); ++s, ly += 22) {
-        o << marker(s, lx + 6, ly - 4, "#333333") << "\n";
-        o << format("<text x=\"%.1f\" y=\"%.1f\">%s</text>\n", lx + 20, ly, xml_escape(scenes[s].name).c_str());
-    }
+
+    // How to read it.
+    const char *const caption[] = {
+        "How to read: pick your build-time budget on a scene's x axis (1 = as long as sweep SAH takes). The "
+        "staircase's height there is the cheapest",
+        "tree any builder made within that budget (ray cost: traversal steps + triangle tests per ray, mean of "
+        "primary, shadow and diffuse rays),",
+        "and the labelled point at that step is the builder that made it. Points above the staircase are beaten "
+        "on both time and cost by another builder.",
+    };
+    for (size_t k = 0; k < 3; ++k)
+        o << format("<text x=\"%.1f\" y=\"%.1f\" font-size=\"12\">%s</text>\n", margin,
+                    head + rows * cell_h + 24 + 18 * double(k), caption[k]);
     o << "</svg>\n";
     return write_file(path, o.str(), err);
 }
@@ -722,6 +855,28 @@ bool split_csv_line(const std::string &text, size_t &pos, std::vector<std::strin
     return true;
 }
 
+/// A parsed JSON value: enough of a DOM to read the benchmark's own files back.
+struct Json {
+    enum Kind { kNull, kBool, kNumber, kString, kArray, kObject } kind = kNull;
+    bool boolean = false;
+    double number = kNaN;
+    std::string text;
+    std::vector<Json> items;                            ///< array elements
+    std::vector<std::pair<std::string, Json>> members;  ///< object members, in file order
+
+    /// The member `key` of an object; a null value when absent (or not an object).
+    const Json &operator[](const char *key) const {
+        static const Json null;
+        for (const auto &m : members)
+            if (m.first == key) return m.second;
+        return null;
+    }
+    /// The number, or NaN for null and anything else.
+    double num() const { return kind == kNumber ? number : kNaN; }
+    const std::string &str() const { return text; }
+};
+
+/// A strict recursive-descent JSON parser (RFC 8259) that builds a Json.
 struct JsonParser {
     const std::string &s;
     size_t i = 0;
@@ -741,86 +896,136 @@ struct JsonParser {
         i += n;
         return true;
     }
-    bool string() {
+    static void append_utf8(std::string &out, unsigned code) {
+        if (code < 0x80) {
+            out += char(code);
+        } else if (code < 0x800) {
+            out += char(0xC0 | (code >> 6));
+            out += char(0x80 | (code & 0x3F));
+        } else {
+            out += char(0xE0 | (code >> 12));
+            out += char(0x80 | ((code >> 6) & 0x3F));
+            out += char(0x80 | (code & 0x3F));
+        }
+    }
+    bool string(std::string &out) {
         if (i >= s.size() || s[i] != '"') return fail("expected string");
         ++i;
+        out.clear();
         while (i < s.size() && s[i] != '"') {
-            if (static_cast<unsigned char>(s[i]) < 0x20) return fail("control character in string");
-            if (s[i] == '\\') {
+            const unsigned char c = static_cast<unsigned char>(s[i]);
+            if (c < 0x20) return fail("control character in string");
+            if (c != '\\') {
+                out += char(c);
                 ++i;
-                if (i >= s.size()) return fail("unterminated escape");
-                if (s[i] == 'u') {
-                    for (int k = 1; k <= 4; ++k)
-                        if (i + k >= s.size() || !std::isxdigit(static_cast<unsigned char>(s[i + k])))
-                            return fail("bad \\u escape");
-                    i += 4;
-                } else if (!std::strchr("\"\\/bfnrt", s[i])) {
-                    return fail("bad escape");
-                }
+                continue;
             }
-            ++i;
+            if (++i >= s.size()) return fail("unterminated escape");
+            const char e = s[i++];
+            switch (e) {
+            case '"': case '\\': case '/': out += e; break;
+            case 'b': out += '\b'; break;
+            case 'f': out += '\f'; break;
+            case 'n': out += '\n'; break;
+            case 'r': out += '\r'; break;
+            case 't': out += '\t'; break;
+            case 'u': {
+                // Basic-plane code points only: the writer escapes nothing above 0x1f.
+                if (i + 4 > s.size()) return fail("bad \\u escape");
+                unsigned code = 0;
+                for (int k = 0; k < 4; ++k) {
+                    const char h = s[i + k];
+                    if (!std::isxdigit(static_cast<unsigned char>(h))) return fail("bad \\u escape");
+                    code = code * 16 + unsigned(std::isdigit(static_cast<unsigned char>(h)) ? h - '0'
+                                                                                             : std::tolower(h) - 'a' + 10);
+                }
+                i += 4;
+                append_utf8(out, code);
+                break;
+            }
+            default: return fail("bad escape");
+            }
         }
         if (i >= s.size()) return fail("unterminated string");
         ++i;
         return true;
     }
-    bool number() {
+    bool digits() {
+        const size_t start = i;
+        while (i < s.size() && std::isdigit(static_cast<unsigned char>(s[i]))) ++i;
+        return i > start;
+    }
+    bool number(double &out) {
         const size_t start = i;
         if (i < s.size() && s[i] == '-') ++i;
         if (i >= s.size() || !std::isdigit(static_cast<unsigned char>(s[i]))) return fail("bad number");
         if (s[i] == '0') ++i;
-        else while (i < s.size() && std::isdigit(static_cast<unsigned char>(s[i]))) ++i;
+        else digits();
         if (i < s.size() && s[i] == '.') {
             ++i;
-            if (i >= s.size() || !std::isdigit(static_cast<unsigned char>(s[i]))) return fail("bad fraction");
-            while (i < s.size() && std::isdigit(static_cast<unsigned char>(s[i]))) ++i;
+            if (!digits()) return fail("bad fraction");
         }
         if (i < s.size() && (s[i] == 'e' || s[i] == 'E')) {
             ++i;
             if (i < s.size() && (s[i] == '+' || s[i] == '-')) ++i;
-            if (i >= s.size() || !std::isdigit(static_cast<unsigned char>(s[i]))) return fail("bad exponent");
-            while (i < s.size() && std::isdigit(static_cast<unsigned char>(s[i]))) ++i;
+            if (!digits()) return fail("bad exponent");
         }
-        return i > start;
+        out = std::strtod(s.substr(start, i - start).c_str(), nullptr);
+        return true;
     }
-    bool value() {
+    bool value(Json &v) {
         if (++depth > 64) return fail("nested too deeply");
         ws();
         bool ok;
-        if (i >= s.size()) ok = fail("unexpected end");
-        else if (s[i] == '{') ok = object();
-        else if (s[i] == '[') ok = array();
-        else if (s[i] == '"') ok = string();
-        else if (s[i] == 't') ok = literal("true");
-        else if (s[i] == 'f') ok = literal("false");
-        else if (s[i] == 'n') ok = literal("null");
-        else ok = number();
+        if (i >= s.size()) {
+            ok = fail("unexpected end");
+        } else if (s[i] == '{') {
+            v.kind = Json::kObject;
+            ok = object(v);
+        } else if (s[i] == '[') {
+            v.kind = Json::kArray;
+            ok = array(v);
+        } else if (s[i] == '"') {
+            v.kind = Json::kString;
+            ok = string(v.text);
+        } else if (s[i] == 't' || s[i] == 'f') {
+            v.kind = Json::kBool;
+            v.boolean = s[i] == 't';
+            ok = literal(v.boolean ? "true" : "false");
+        } else if (s[i] == 'n') {
+            ok = literal("null");
+        } else {
+            v.kind = Json::kNumber;
+            ok = number(v.number);
+        }
         --depth;
         ws();
         return ok;
     }
-    bool object() {
+    bool object(Json &v) {
         ++i;
         ws();
         if (i < s.size() && s[i] == '}') return ++i, true;
         while (true) {
             ws();
-            if (!string()) return false;
+            v.members.emplace_back();
+            if (!string(v.members.back().first)) return false;
             ws();
             if (i >= s.size() || s[i] != ':') return fail("expected ':'");
             ++i;
-            if (!value()) return false;
+            if (!value(v.members.back().second)) return false;
             if (i < s.size() && s[i] == ',') { ++i; continue; }
             if (i < s.size() && s[i] == '}') return ++i, true;
             return fail("expected ',' or '}'");
         }
     }
-    bool array() {
+    bool array(Json &v) {
         ++i;
         ws();
         if (i < s.size() && s[i] == ']') return ++i, true;
         while (true) {
-            if (!value()) return false;
+            v.items.emplace_back();
+            if (!value(v.items.back())) return false;
             if (i < s.size() && s[i] == ',') { ++i; continue; }
             if (i < s.size() && s[i] == ']') return ++i, true;
             return fail("expected ',' or ']'");
@@ -828,7 +1033,100 @@ struct JsonParser {
     }
 };
 
+/// Parses a whole file as one JSON object with "scenes" and "results" in it.
+bool parse_results_file(const std::string &path, Json &root, std::string &err) {
+    std::string text;
+    if (!read_file(path, text, err)) return false;
+    JsonParser p{text, 0, 0, std::string()};
+    p.ws();
+    if (p.i >= text.size() || text[p.i] != '{') {
+        err = path + ": does not start with an object";
+        return false;
+    }
+    if (!p.value(root)) {
+        err = path + ": " + p.err;
+        return false;
+    }
+    if (p.i != text.size()) {
+        err = path + ": trailing text after the object";
+        return false;
+    }
+    const Json &scenes = root["scenes"];
+    if (scenes.kind != Json::kArray || scenes.items.empty() || scenes.items[0]["results"].kind != Json::kArray) {
+        err = path + ": no scenes or results";
+        return false;
+    }
+    return true;
+}
+
 }  // namespace
+
+bool read_json(const std::string &path, std::vector<SceneResult> &scenes, RunInfo &info, std::string &err) {
+    Json root;
+    if (!parse_results_file(path, root, err)) return false;
+    scenes.clear();
+    info = RunInfo();
+    info.command = root["command"].str();
+    info.library_version = root["library_version"].str();
+    info.embree_version = root["embree_version"].str();
+    info.cpu = root["cpu"].str();
+    info.hardware_threads = unsigned(root["hardware_threads"].num());
+    info.date = root["date"].str();
+    info.runs = int(root["runs"].num());
+    for (const Json &t : root["threads"].items) info.threads.push_back(uint32_t(t.num()));
+
+    auto kinds = [](const Json &j, double out[kRayKindCount]) {
+        for (int k = 0; k < kRayKindCount; ++k) out[k] = j[ray_kind_name(k)].num();
+    };
+    auto vec3 = [](const Json &j, float out[3]) {
+        for (size_t k = 0; k < 3; ++k) out[k] = k < j.items.size() ? float(j.items[k].num()) : 0.0f;
+    };
+    for (const Json &js : root["scenes"].items) {
+        SceneResult s;
+        s.name = js["name"].str();
+        s.source = js["source"].str();
+        s.triangles = uint64_t(js["triangles"].num());
+        const Json &cam = js["camera"];
+        vec3(cam["eye"], s.camera.eye);
+        vec3(cam["target"], s.camera.target);
+        vec3(cam["light"], s.camera.light);
+        s.camera.up[0] = s.camera.up[2] = 0.0f;  // not in the file: every camera has y up
+        s.camera.up[1] = 1.0f;
+        s.camera.fov_y_degrees = float(cam["fov_y_degrees"].num());
+        s.camera.source = cam["source"].str();
+        const Json &image = js["image"];
+        if (image.items.size() == 2) {
+            s.width = uint32_t(image.items[0].num());
+            s.height = uint32_t(image.items[1].num());
+        }
+        for (int k = 0; k < kRayKindCount; ++k) s.ray_counts[k] = uint64_t(js["rays"][ray_kind_name(k)].num());
+        for (const Json &jr : js["results"].items) {
+            Row r;
+            r.builder = jr["builder"].str();
+            r.label = jr["label"].str();
+            r.status = jr["status"].str();
+            r.note = jr["note"].str();
+            for (const Json &jt : jr["build"].items) {
+                BuildTiming t;
+                t.threads = uint32_t(jt["threads"].num());
+                t.runs = int(jt["runs"].num());
+                t.median_ms = jt["median_ms"].num();
+                t.min_ms = jt["min_ms"].num();
+                t.max_ms = jt["max_ms"].num();
+                r.timings.push_back(t);
+            }
+            r.sah = jr["sah_cost"].num();
+            r.bytes_per_triangle = jr["bytes_per_triangle"].num();
+            kinds(jr["ray_cost"], r.cost);
+            kinds(jr["ray_cost_relative_to_sweep_sah"], r.rel_cost);
+            kinds(jr["traversal_steps"], r.steps);
+            kinds(jr["mrays_per_s"], r.mrays);
+            s.rows.push_back(r);
+        }
+        scenes.push_back(s);
+    }
+    return true;
+}
 
 bool check_csv_file(const std::string &path, std::string &err) {
     std::string text;
@@ -861,27 +1159,8 @@ bool check_csv_file(const std::string &path, std::string &err) {
 }
 
 bool check_json_file(const std::string &path, std::string &err) {
-    std::string text;
-    if (!read_file(path, text, err)) return false;
-    JsonParser p{text, 0, 0, std::string()};
-    p.ws();
-    if (p.i >= text.size() || text[p.i] != '{') {
-        err = path + ": does not start with an object";
-        return false;
-    }
-    if (!p.value()) {
-        err = path + ": " + p.err;
-        return false;
-    }
-    if (p.i != text.size()) {
-        err = path + ": trailing text after the object";
-        return false;
-    }
-    if (text.find("\"scenes\"") == std::string::npos || text.find("\"results\"") == std::string::npos) {
-        err = path + ": no scenes or results";
-        return false;
-    }
-    return true;
+    Json root;
+    return parse_results_file(path, root, err);
 }
 
 bool check_svg_file(const std::string &path, std::string &err) {

@@ -1,6 +1,7 @@
 // The benchmark's results and their outputs: a console table, CSV, JSON, an SVG
-// plot (build time against ray cost), a Markdown report (docs/EVALUATION.md),
-// and small validators of the written files for --self-check.
+// plot (build time against ray cost, a panel per scene), a Markdown report
+// (docs/EVALUATION.md), a reader of the JSON (for --replot), and small
+// validators of the written files for --self-check.
 #pragma once
 
 #include "rays.h"
@@ -79,6 +80,17 @@ bool write_svg(const std::string &path, const std::vector<SceneResult> &scenes, 
                std::string &err);
 bool write_markdown(const std::string &path, const std::vector<SceneResult> &scenes, const RunInfo &info,
                     std::string &err);
+
+/// Reads a file write_json() wrote back into results (--replot: the other
+/// outputs again without rerunning the benchmark). Values written as null come
+/// back as NaN; the cameras' up vector, not in the file, comes back as +y.
+bool read_json(const std::string &path, std::vector<SceneResult> &scenes, RunInfo &info, std::string &err);
+
+/// The Pareto front of points (x[i], y[i]), lower being better on both axes:
+/// the indices of the points no other point beats, that is, none has x <= and
+/// y <= with one of them strictly less. Sorted by x (then y); of identical
+/// points only the first is kept. NaN points are never on the front.
+std::vector<size_t> pareto_front(const std::vector<double> &x, const std::vector<double> &y);
 
 /// Validators for --self-check: each reads the file back and checks its syntax
 /// (CSV: a header and rows of as many fields; JSON: a complete parse; SVG:

@@ -1,6 +1,8 @@
 // Tests of the benchmark's ray-cost counter (ray_cost.h): counts on a hand-built
 // tree where every step and test is known, the SAH formula, the tree checker,
 // and agreement of the counting tracer with aacbvh_bvh_intersect on a library tree.
+#include "bench_test.h"
+#include "random.h"
 #include "ray_cost.h"
 
 #include <aacbvh/aacbvh.h>
@@ -13,16 +15,6 @@
 using namespace bench;
 
 namespace {
-
-int g_failures = 0;
-
-#define CHECK(cond)                                                             \
-    do {                                                                        \
-        if (!(cond)) {                                                          \
-            std::fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
-            ++g_failures;                                                       \
-        }                                                                       \
-    } while (0)
 
 aacbvh_ray make_ray(float ox, float oy, float oz, float dx, float dy, float dz, float tmin = 0.0f,
                     float tmax = std::numeric_limits<float>::infinity()) {
@@ -170,11 +162,8 @@ void test_against_library() {
     CHECK(std::fabs(sah_cost(tree) - stats.sah_cost) < 1e-4 * stats.sah_cost);
 
     std::vector<aacbvh_ray> rays;
-    uint64_t state = 12345;
-    auto uniform = [&] {
-        state = state * 6364136223846793005ull + 1442695040888963407ull;
-        return float(state >> 40) / 16777216.0f;
-    };
+    SplitMix64 random(12345);
+    auto uniform = [&] { return random.uniform_float(); };
     for (int i = 0; i < 2000; ++i)
         rays.push_back(make_ray(uniform() * n, uniform() * n, 2.0f, uniform() - 0.5f, uniform() - 0.5f, -1.0f));
     std::vector<aacbvh_hit> hits(rays.size());
@@ -200,10 +189,5 @@ int main() {
     test_hand_built_counts();
     test_sah_and_checker();
     test_against_library();
-    if (g_failures) {
-        std::fprintf(stderr, "test_ray_cost: %d check(s) failed\n", g_failures);
-        return 1;
-    }
-    std::printf("test_ray_cost: all checks passed\n");
-    return 0;
+    return bench_test::finish("test_ray_cost");
 }

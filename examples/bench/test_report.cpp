@@ -1,0 +1,194 @@
+// Tests of the benchmark's report (report.h): the Pareto front on hand-made
+// points, the JSON reader against the writer (what --replot relies on), and
+// the SVG plot's panels, fronts and labels.
+#include "bench_test.h"
+#include "report.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace bench;
+
+namespace {
+
+std::string slurp(const std::string &path) {
+    std::ifstream f(path, std::ios::binary);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+}
+
+size_t count(const std::string &text, const std::string &what) {
+    size_t n = 0;
+    for (size_t i = text.find(what); i != std::string::npos; i = text.find(what, i + 1)) ++n;
+    return n;
+}
+
+void test_pareto_front() {
+    // 2 is beaten by 1 (faster and cheaper), 4 by 3 (as fast, cheaper), 5 is a
+    // copy of 0, 6 has no cost.
+    const std::vector<double> x = {1, 2, 3, 4, 4, 1, 0.5};
+    const std::vector<double> y = {5, 3, 4, 1, 2, 5, kNaN};
+    CHECK(pareto_front(x, y) == (std::vector<size_t>{0, 1, 3}));
+    CHECK(pareto_front({}, {}).empty());
+    CHECK(pareto_front({7}, {7}) == std::vector<size_t>{0});
+    // All equally fast: only the cheapest; all equally cheap: only the fastest.
+    CHECK(pareto_front({2, 2, 2}, {3, 1, 2}) == std::vector<size_t>{1});
+    CHECK(pareto_front({3, 1, 2}, {1, 1, 1}) == std::vector<size_t>{1});
+    // Slower and cheaper all the way: every point is on the front, in x order.
+    CHECK(pareto_front({4, 1, 3, 2}, {1, 4, 2, 3}) == (std::vector<size_t>{1, 3, 2, 0}));
+}
+
+Row make_row(const std::string &builder, const std::string &label, double ms, double rel) {
+    Row r;
+    r.builder = builder;
+    r.label = label;
+    r.status = "ok";
+    BuildTiming t;
+    t.threads = 1;
+    t.runs = 3;
+    t.median_ms = ms;
+    t.min_ms = 0.9 * ms;
+    t.max_ms = 1.25 * ms;
+    r.timings.push_back(t);
+    t.threads = 2;
+    t.median_ms = ms / 1.7;
+    r.timings.push_back(t);
+    r.sah = 40.0 * rel;
+    r.bytes_per_triangle = 36.5;
+    for (int k = 0; k < kRayKindCount; ++k) {
+        r.cost[k] = 20.0 * rel + k;
+        r.rel_cost[k] = rel;
+        r.steps[k] = 18.0 * rel;
+        r.mrays[k] = 3.0 / rel;
+    }
+    return r;
+}
+
+SceneResult make_scene(const std::string &name, bool with_sweep) {
+    SceneResult s;
+    s.name = name;
+    s.source = "/scenes/" + name + ".obj";
+    s.triangles = 12345;
+    const float eye[3] = {0.1f, 2.5f, -3.25f}, target[3] = {0, 0, 0}, light[3] = {1.0f / 3.0f, 4, 5};
+    for (int k = 0; k < 3; ++k) {
+        s.camera.eye[k] = eye[k];
+        s.camera.target[k] = target[k];
+        s.camera.light[k] = light[k];
+        s.camera.up[k] = k == 1 ? 1.0f : 0.0f;
+    }
+    s.camera.fov_y_degrees = 60;
+    s.camera.source = "table";
+    s.width = 64;
+    s.height = 48;
+    s.ray_counts[kPrimary] = 3072;
+    s.ray_counts[kShadow] = 1000;
+    s.ray_counts[kDiffuse] = 1500;
+    if (with_sweep) s.rows.push_back(make_row("sweep-sah", "Sweep SAH", 50.0, 1.0));
+    s.rows.push_back(make_row("aac-hq", "AAC-HQ", 20.0, 0.97));    // on the front
+    s.rows.push_back(make_row("ploc", "PLOC", 70.0, 1.1));          // beaten by both
+    s.rows.push_back(make_row("aac-fast", "AAC-Fast", 10.0, 1.2));  // on the front
+    Row skipped;
+    skipped.builder = "locally-ordered";
+    skipped.label = "Locally-ordered";
+    skipped.status = "skipped";
+    skipped.note = "over \"400000\" triangles\n\tsee --lo-max-triangles (\xc3\xa9)";
+    s.rows.push_back(skipped);
+    return s;
+}
+
+RunInfo make_info() {
+    RunInfo info;
+    info.command = "aacbvh-bench --runs 3 --json x.json";
+    info.library_version = "1.0.0 (test)";
+    info.embree_version = "not compiled in";
+    info.cpu = "Test CPU <4 GHz> & co";
+    info.hardware_threads = 8;
+    info.threads = {1, 2};
+    info.runs = 3;
+    info.date = "2026-01-01 00:00 UTC";
+    return info;
+}
+
+/// Equal to the JSON's 9 significant digits, or both missing (NaN).
+bool same(double a, double b) {
+    return (std::isnan(a) && std::isnan(b)) || std::fabs(a - b) <= 1e-8 * std::fabs(a);
+}
+
+void test_json_round_trip() {
+    const std::vector<SceneResult> scenes = {make_scene("alpha", true), make_scene("beta", false)};
+    const RunInfo info = make_info();
+    std::string err;
+    CHECK(write_json("test_report.json", scenes, info, err));
+
+    std::vector<SceneResult> back;
+    RunInfo back_info;
+    CHECK(read_json("test_report.json", back, back_info, err));
+    CHECK(back_info.command == info.command && back_info.cpu == info.cpu && back_info.date == info.date);
+    CHECK(back_info.threads == info.threads && back_info.runs == 3 && back_info.hardware_threads == 8);
+    CHECK(back.size() == 2);
+    if (back.size() == 2) {
+        const SceneResult &a = scenes[0], &b = back[0];
+        CHECK(b.name == "alpha" && b.source == a.source && b.triangles == a.triangles);
+        CHECK(b.width == 64 && b.height == 48 && b.ray_counts[kShadow] == 1000);
+        for (int k = 0; k < 3; ++k)
+            CHECK(b.camera.eye[k] == a.camera.eye[k] && b.camera.light[k] == a.camera.light[k]);
+        CHECK(b.rows.size() == a.rows.size());
+        for (size_t i = 0; i < a.rows.size() && i < b.rows.size(); ++i) {
+            const Row &r = a.rows[i], &q = b.rows[i];
+            CHECK(q.builder == r.builder && q.label == r.label && q.status == r.status && q.note == r.note);
+            CHECK(q.timings.size() == r.timings.size());
+            for (size_t t = 0; t < r.timings.size() && t < q.timings.size(); ++t)
+                CHECK(q.timings[t].threads == r.timings[t].threads && q.timings[t].runs == r.timings[t].runs &&
+                      same(q.timings[t].median_ms, r.timings[t].median_ms));
+            CHECK(same(q.sah, r.sah) && same(q.bytes_per_triangle, r.bytes_per_triangle));
+            for (int k = 0; k < kRayKindCount; ++k)
+                CHECK(same(q.cost[k], r.cost[k]) && same(q.rel_cost[k], r.rel_cost[k]) &&
+                      same(q.steps[k], r.steps[k]) && same(q.mrays[k], r.mrays[k]));
+        }
+        CHECK(back[1].find("sweep-sah") == nullptr && back[1].find("aac-hq") != nullptr);
+    }
+    // Written again, the file is the same to the byte.
+    CHECK(write_json("test_report_again.json", back, back_info, err));
+    CHECK(slurp("test_report.json") == slurp("test_report_again.json"));
+
+    // A broken file is refused with a reason.
+    const std::string text = slurp("test_report.json");
+    std::ofstream("test_report_broken.json", std::ios::binary) << text.substr(0, text.size() / 2);
+    err.clear();
+    CHECK(!read_json("test_report_broken.json", back, back_info, err) && !err.empty());
+    CHECK(!read_json("test_report_no_such_file.json", back, back_info, err));
+}
+
+void test_svg() {
+    const std::vector<SceneResult> scenes = {make_scene("alpha", true), make_scene("gamma", true),
+                                             make_scene("beta", false)};
+    std::string err;
+    CHECK(write_svg("test_report.svg", scenes, make_info(), err));
+    CHECK(check_svg_file("test_report.svg", err));
+    const std::string svg = slurp("test_report.svg");
+    CHECK(count(svg, "<g>") == 3);  // a panel per scene
+    // A staircase in each panel that has sweep SAH to be relative to, and the
+    // legend's sample of it.
+    CHECK(count(svg, "stroke=\"black\" stroke-width=\"1.6\"") == 2 + 1);
+    CHECK(count(svg, "nothing to compare with") == 1);
+    // Front labels: AAC-HQ and AAC-Fast in both fronts; PLOC and sweep SAH,
+    // beaten, only in the legend.
+    CHECK(count(svg, "paint-order=\"stroke\">AAC-HQ<") == 2);
+    CHECK(count(svg, "paint-order=\"stroke\">AAC-Fast<") == 2);
+    CHECK(count(svg, "paint-order=\"stroke\">PLOC<") == 0);
+    CHECK(count(svg, ">Sweep SAH<") == 1);
+    CHECK(count(svg, "Test CPU &lt;4 GHz&gt; &amp; co") == 1);
+}
+
+}  // namespace
+
+int main() {
+    test_pareto_front();
+    test_json_round_trip();
+    test_svg();
+    return bench_test::finish("test_report");
+}
