@@ -45,14 +45,14 @@ constexpr aacbvh_builder kReference = AACBVH_BUILDER_SWEEP_SAH;
 /// Relative difference of closest-hit distances accepted as rounding.
 constexpr double kRelativeTolerance = 1e-5;
 
-const BuilderInfo kBuilders[] = {
-    {"aac-hq", AACBVH_BUILDER_AAC_HQ},
-    {"aac-fast", AACBVH_BUILDER_AAC_FAST},
-    {"sweep-sah", AACBVH_BUILDER_SWEEP_SAH},
-    {"binned-sah", AACBVH_BUILDER_BINNED_SAH},
-    {"ploc", AACBVH_BUILDER_PLOC},
-    {"locally-ordered", AACBVH_BUILDER_LOCALLY_ORDERED},
-};
+/// Every builder the library offers (aacbvh_builder_name), in its order.
+/// "aac" is left out: with its parameters unset it is aac-hq.
+std::vector<BuilderInfo> library_builders() {
+    std::vector<BuilderInfo> out;
+    for (int b = 0; aacbvh_builder_name(aacbvh_builder(b)); ++b)
+        if (b != AACBVH_BUILDER_AAC) out.push_back({aacbvh_builder_name(aacbvh_builder(b)), aacbvh_builder(b)});
+    return out;
+}
 
 struct Options {
     int runs = 5;
@@ -82,8 +82,8 @@ void usage(FILE *out) {
         "options:\n"
         "  --runs N              builds per scene and builder (default 5)\n"
         "  --threads N           threads of the context (default 1; 0 = one per core)\n"
-        "  --builders LIST       comma-separated, from aac-hq, aac-fast, sweep-sah,\n"
-        "                        binned-sah, ploc, locally-ordered; or all (the default)\n"
+        "  --builders LIST       comma-separated builder names (aacbvh_builder_name: aac-hq,\n"
+        "                        aac-fast, sweep-sah, ...); or all (the default)\n"
         "  --lo-max-triangles N  by default, run locally-ordered only on scenes of at\n"
         "                        most N triangles (default 400000; 0 = no limit)\n"
         "  --time-budget S       stop repeating a builder on a scene once its builds\n"
@@ -117,18 +117,14 @@ bool parse_builders(const std::string &list, std::vector<BuilderInfo> &out) {
         std::transform(name.begin(), name.end(), name.begin(), [](char c) {
             return c == '_' ? '-' : static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
         });
+        aacbvh_builder builder;
         if (name == "all") {
-            out.assign(std::begin(kBuilders), std::end(kBuilders));
+            out = library_builders();
+        } else if (aacbvh_builder_from_name(name.c_str(), &builder) == AACBVH_OK) {
+            out.push_back({aacbvh_builder_name(builder), builder});
         } else {
-            const BuilderInfo *found = nullptr;
-            for (const BuilderInfo &b : kBuilders)
-                if (name == b.name)
-                    found = &b;
-            if (found == nullptr) {
-                std::fprintf(stderr, "aacbvh-demo: unknown builder '%s'\n", name.c_str());
-                return false;
-            }
-            out.push_back(*found);
+            std::fprintf(stderr, "aacbvh-demo: %s\n", aacbvh_last_error());
+            return false;
         }
         start = comma + 1;
     }
@@ -136,7 +132,7 @@ bool parse_builders(const std::string &list, std::vector<BuilderInfo> &out) {
 }
 
 bool parse_options(int argc, char **argv, Options &opt, bool &help) {
-    opt.builders.assign(std::begin(kBuilders), std::end(kBuilders));
+    opt.builders = library_builders();
     help = false;
     for (int i = 1; i < argc; ++i) {
         const std::string arg = argv[i];

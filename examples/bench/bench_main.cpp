@@ -46,17 +46,37 @@ struct BuilderInfo {
     int builder;  ///< an aacbvh_builder, or -1 for the Embree rows
 };
 
-const BuilderInfo kBuilders[] = {
-    {"sweep-sah", "Sweep SAH", AACBVH_BUILDER_SWEEP_SAH},
-    {"binned-sah", "Binned SAH", AACBVH_BUILDER_BINNED_SAH},
-    {"locally-ordered", "Locally-ordered", AACBVH_BUILDER_LOCALLY_ORDERED},
-    {"ploc", "PLOC", AACBVH_BUILDER_PLOC},
-    {"aac-hq", "AAC-HQ", AACBVH_BUILDER_AAC_HQ},
-    {"aac-fast", "AAC-Fast", AACBVH_BUILDER_AAC_FAST},
-    {"embree-low", "Embree LOW", -1},
-    {"embree-medium", "Embree MEDIUM", -1},
-    {"embree-scene", "Embree scene", -1},
-};
+/// How the reports name a builder: the library's name (aacbvh_builder_name)
+/// as the docs write it.
+const char *label_of(const std::string &id) {
+    static const std::pair<const char *, const char *> labels[] = {
+        {"sweep-sah", "Sweep SAH"}, {"binned-sah", "Binned SAH"}, {"locally-ordered", "Locally-ordered"},
+        {"ploc", "PLOC"},           {"aac-hq", "AAC-HQ"},         {"aac-fast", "AAC-Fast"},
+    };
+    for (const auto &l : labels)
+        if (id == l.first) return l.second;
+    return nullptr;
+}
+
+/// Every builder the library offers (aacbvh_builder_name; "aac", which is
+/// aac-hq with its parameters unset, left out), reference builders first as
+/// the reports list them, then Embree's.
+const std::vector<BuilderInfo> &all_builders() {
+    static const std::vector<BuilderInfo> all = [] {
+        std::vector<BuilderInfo> v;
+        for (int b = 0; aacbvh_builder_name(aacbvh_builder(b)); ++b) {
+            if (b == AACBVH_BUILDER_AAC) continue;
+            const char *id = aacbvh_builder_name(aacbvh_builder(b));
+            v.push_back({id, label_of(id) ? label_of(id) : id, b});
+        }
+        std::stable_partition(v.begin(), v.end(), [](const BuilderInfo &b) { return std::strncmp(b.id, "aac", 3) != 0; });
+        v.push_back({"embree-low", "Embree LOW", -1});
+        v.push_back({"embree-medium", "Embree MEDIUM", -1});
+        v.push_back({"embree-scene", "Embree scene", -1});
+        return v;
+    }();
+    return all;
+}
 
 struct Options {
     std::vector<std::string> scenes;
@@ -164,11 +184,11 @@ bool parse_args(int argc, char **argv, Options &opt) {
             builders_given = true;
             for (const std::string &name : split(s, ',')) {
                 if (name == "all") {
-                    for (const BuilderInfo &b : kBuilders) opt.builders.push_back(&b);
+                    for (const BuilderInfo &b : all_builders()) opt.builders.push_back(&b);
                     continue;
                 }
                 const BuilderInfo *found = nullptr;
-                for (const BuilderInfo &b : kBuilders)
+                for (const BuilderInfo &b : all_builders())
                     if (name == b.id) found = &b;
                 if (!found) {
                     std::fprintf(stderr, "aacbvh-bench: unknown builder '%s'\n", name.c_str());
@@ -257,7 +277,7 @@ bool parse_args(int argc, char **argv, Options &opt) {
         }
     }
     if (!builders_given)
-        for (const BuilderInfo &b : kBuilders) opt.builders.push_back(&b);
+        for (const BuilderInfo &b : all_builders()) opt.builders.push_back(&b);
     if (!opt.embree || !embree_compiled()) {
         opt.builders.erase(std::remove_if(opt.builders.begin(), opt.builders.end(),
                                           [](const BuilderInfo *b) { return b->builder < 0; }),
