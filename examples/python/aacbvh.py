@@ -163,6 +163,8 @@ def _load(path=None):
         "aacbvh_bvh_create": (st, [c_ctx, P(c_bvh)]),
         "aacbvh_bvh_destroy": (None, [c_bvh]),
         "aacbvh_bvh_last_error": (ctypes.c_char_p, [c_bvh]),
+        "aacbvh_last_error": (ctypes.c_char_p, []),
+        "aacbvh_builder_name": (ctypes.c_char_p, [st]),
         "aacbvh_bvh_set_param_int": (st, [c_bvh, st, ctypes.c_int64]),
         "aacbvh_bvh_set_param_float": (st, [c_bvh, st, ctypes.c_double]),
         "aacbvh_bvh_get_param_int": (st, [c_bvh, st, P(ctypes.c_int64)]),
@@ -188,6 +190,18 @@ def _load(path=None):
 
 
 _lib = None
+
+
+def builders():
+    """{name: value} of every builder the loaded library offers, from its own
+    table (aacbvh_builder_name): {"aac-hq": 0, "aac-fast": 1, ...}."""
+    lib, out, value = library(), {}, 0
+    while True:
+        name = lib.aacbvh_builder_name(value)
+        if name is None:
+            return out
+        out[name.decode()] = value
+        value += 1
 
 
 def library():

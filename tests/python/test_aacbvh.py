@@ -112,6 +112,14 @@ class BindingTest(unittest.TestCase):
             if hasattr(aacbvh, name) and isinstance(getattr(aacbvh, name), int):
                 self.assertEqual(getattr(aacbvh, name), value, name)
 
+    def test_builders_from_the_library(self):
+        # The library's builder table names every BUILDER_ constant of the binding.
+        table = aacbvh.builders()
+        self.assertEqual(table["aac-hq"], aacbvh.BUILDER_AAC_HQ)
+        for name, value in table.items():
+            self.assertEqual(getattr(aacbvh, "BUILDER_" + name.upper().replace("-", "_")), value, name)
+        self.assertEqual(len(table), len([n for n in dir(aacbvh) if n.startswith("BUILDER_")]))
+
     def test_keep_build_memory(self):
         vertices = random_triangles(60000, 9)
         fresh = aacbvh.Bvh(self.ctx)
