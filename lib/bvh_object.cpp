@@ -38,6 +38,12 @@ void check_stride(size_t stride, size_t minimum, const char *what) {
 
 } // namespace
 
+void BvhObject::require_idle() const {
+    if (building_)
+        throw Error(AACBVH_ERROR_INVALID_OPERATION,
+                    "this BVH is being built: its progress callback may query it or use other handles, not change it");
+}
+
 void BvhObject::replace_geometry(const Geometry &g) {
     geometry_ = g;
     geometry_set_ = true;
@@ -46,6 +52,7 @@ void BvhObject::replace_geometry(const Geometry &g) {
 
 void BvhObject::set_triangles(const float *vertices, size_t vertex_count, size_t vertex_stride,
                               const uint32_t *indices, size_t triangle_count) {
+    require_idle();
     if (triangle_count > kMaxPrimitives) reject("triangle count " + std::to_string(triangle_count) +
                                                     " exceeds AACBVH_MAX_PRIMITIVES (2^31 - 1)");
     if (vertex_count > (size_t(1) << 32)) reject("vertex count exceeds 2^32");
@@ -68,6 +75,7 @@ void BvhObject::set_triangles(const float *vertices, size_t vertex_count, size_t
 }
 
 void BvhObject::set_boxes(const float *boxes, size_t box_count, size_t stride) {
+    require_idle();
     if (box_count > kMaxPrimitives) reject("box count " + std::to_string(box_count) + " exceeds AACBVH_MAX_PRIMITIVES (2^31 - 1)");
     if (!boxes && box_count > 0) reject("boxes is NULL but box_count is " + std::to_string(box_count));
     if (box_count > 0) check_stride(stride, 6 * sizeof(float), "box");
@@ -93,11 +101,18 @@ void BvhObject::copy_triangles(const Bvh &bvh, float *out) const {
 }
 
 void BvhObject::set_param_int(int32_t key, int64_t value) {
+    require_idle();
     params.set_int(key, value);
     if (!params.keep_build_memory) kept_blocks_.reset();
 }
 
 void BvhObject::build() {
+    require_idle();
+    struct Building {
+        bool &flag;
+        explicit Building(bool &f) : flag(f) { flag = true; }
+        ~Building() { flag = false; }
+    } building(building_);
     const auto start = std::chrono::steady_clock::now();
     // With AACBVH_PARAM_KEEP_BUILD_MEMORY, big blocks come from and go back to
     // kept_blocks_ for the whole build, the old tree's included; whatever this
@@ -172,6 +187,7 @@ void BvhObject::build() {
 }
 
 void BvhObject::refit() {
+    require_idle();
     if (!has_topology_) throw Error(AACBVH_ERROR_INVALID_OPERATION, "refit needs a built tree: call aacbvh_bvh_build first");
     if (geometry_.kind != built_kind_ || geometry_.primitive_count != built_primitive_count_)
         throw Error(AACBVH_ERROR_INVALID_OPERATION,

@@ -27,7 +27,10 @@ public:
     /// effects (setting AACBVH_PARAM_KEEP_BUILD_MEMORY to 0 frees the kept blocks).
     Params params;
     void set_param_int(int32_t key, int64_t value);
-    void set_param_float(int32_t key, double value) { params.set_float(key, value); }
+    void set_param_float(int32_t key, double value) {
+        require_idle();
+        params.set_float(key, value);
+    }
     /// Bytes kept for the next build (AACBVH_PARAM_KEEP_BUILD_MEMORY).
     size_t kept_build_bytes() const { return kept_blocks_ ? kept_blocks_->bytes() : 0; }
 
@@ -86,6 +89,10 @@ private:
     mutable TreeFigures figures_;
     aacbvh_progress_fn progress_ = nullptr;
     void *progress_user_ = nullptr;
+    /// A build is running (so a call from its own progress callback that would
+    /// change the handle is refused: require_idle()).
+    bool building_ = false;
+    void require_idle() const;
 };
 
 } // namespace aacbvh

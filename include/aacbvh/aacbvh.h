@@ -312,8 +312,14 @@ AACBVH_API aacbvh_status aacbvh_bvh_set_boxes(aacbvh_bvh *bvh, const float *boxe
  * every few milliseconds during them, so a cancel is noticed promptly by every
  * builder. Return true to go on, false to cancel: the build then stops
  * promptly, frees what it allocated, returns AACBVH_ERROR_CANCELLED and keeps
- * the previous tree, and the callback is not called again by that build. It
- * must not call into the same BVH handle.
+ * the previous tree, and the callback is not called again by that build.
+ *
+ * The callback may use the library (since 1.1.0): build, refit, query and
+ * destroy other BVHs, on any context (the building one included), and query
+ * this one (which answers with its previous tree). Calls that would change
+ * this handle (set_param, set_triangles, set_boxes, build, refit) return
+ * AACBVH_ERROR_INVALID_OPERATION. The build's result does not depend on what
+ * the callback does, and the callback is never entered again while it runs.
  */
 typedef bool (*aacbvh_progress_fn)(void *user_data, double fraction_done);
 

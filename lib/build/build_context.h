@@ -26,9 +26,14 @@ public:
     void report(double fraction) {
         if (cancelled_.load(std::memory_order_relaxed)) throw_cancelled();
         fraction_ = fraction;
-        if (progress_) {
+        // Not again while the callback runs: a build it starts may run this
+        // build's tasks on this thread while it waits, and they poll.
+        if (progress_ && !in_callback_) {
             last_call_ = std::chrono::steady_clock::now();
-            if (!progress_(user_, fraction)) {
+            in_callback_ = true;
+            const bool go_on = progress_(user_, fraction);
+            in_callback_ = false;
+            if (!go_on) {
                 cancelled_.store(true, std::memory_order_relaxed);
                 throw_cancelled();
             }
@@ -58,6 +63,7 @@ private:
     std::thread::id owner_;
     std::chrono::steady_clock::time_point last_call_;
     double fraction_ = 0.0;
+    bool in_callback_ = false; ///< only the owner thread calls the callback
     std::atomic<bool> cancelled_{false};
 };
 
