@@ -17,14 +17,16 @@ namespace aacbvh {
 /// Per-ray constants of the watertight test (section 3 of the paper).
 struct TriangleRay {
     float org[3];
+    float dir[3];     ///< for the hit distance (triangle_distance())
     int kx, ky, kz;   ///< kz: dominant axis of dir; kx, ky the other two, swapped to keep winding
-    float sx, sy, sz; ///< shear: dir[kx] / dir[kz], dir[ky] / dir[kz], 1 / dir[kz]
+    float sx, sy;     ///< shear: dir[kx] / dir[kz], dir[ky] / dir[kz] (at most 1 in magnitude)
 };
 
 /// Precomputes the shear for a ray with a finite, non-zero direction.
 inline TriangleRay make_triangle_ray(const float org[3], const float dir[3]) {
     TriangleRay r;
     r.org[0] = org[0]; r.org[1] = org[1]; r.org[2] = org[2];
+    r.dir[0] = dir[0]; r.dir[1] = dir[1]; r.dir[2] = dir[2];
     const float ax = std::fabs(dir[0]), ay = std::fabs(dir[1]), az = std::fabs(dir[2]);
     int kz = 0;
     if (ay > ax) kz = 1;
@@ -37,7 +39,6 @@ inline TriangleRay make_triangle_ray(const float org[3], const float dir[3]) {
     r.kx = kx; r.ky = ky; r.kz = kz;
     r.sx = dir[kx] / dir[kz];
     r.sy = dir[ky] / dir[kz];
-    r.sz = 1.0f / dir[kz];
     return r;
 }
 
@@ -54,6 +55,54 @@ inline bool has_area(const float *p0, const float *p1, const float *p2) {
     return e1[1] * e2[2] != e1[2] * e2[1] || e1[2] * e2[0] != e1[0] * e2[2] || e1[0] * e2[1] != e1[1] * e2[0];
 }
 
+/// The distance along the ray to the triangle, for a ray the edge functions
+/// have found inside it: the plane distance (p0 - org) . n / (dir . n), n =
+/// (p1 - p0) x (p2 - p0), in double, kept within the stretch of the ray that
+/// lies inside the triangle's bounding box.
+///
+/// Why double: the paper's single-precision distance, the sum of U, V, W
+/// times the vertices' z over det, adds terms as large as the distance to the
+/// vertices, which cancel when the hit is near and the triangle large (t was
+/// 1e-3 off, relative). In double the differences of floats are exact, each
+/// product rounds once, and the one cancellation (in the numerator) costs
+/// bits that double has to spare: t comes out within an ulp of the exact
+/// plane distance (the bound is in the header, at aacbvh_bvh_intersect).
+///
+/// Why the box: the edge functions decide a hit in single precision, so a ray
+/// that passes within rounding distance of an edge may be accepted although
+/// its exact path misses the triangle; for a ray grazing the plane, the
+/// plane distance of such a hit can then lie outside the triangle's box, and
+/// the BVH would cull the triangle or not depending on the order of the
+/// visits. Clamped to the box, t is where the node tests expect it. For every
+/// other hit the plane point lies in the box and nothing changes.
+/// Returns false when no finite distance comes out.
+inline bool triangle_distance(const TriangleRay &r, const float *p0, const float *p1, const float *p2, double &t) {
+    double e1[3], e2[3], w[3];
+    for (int k = 0; k < 3; ++k) {
+        e1[k] = double(p1[k]) - double(p0[k]);
+        e2[k] = double(p2[k]) - double(p0[k]);
+        w[k] = double(p0[k]) - double(r.org[k]);
+    }
+    const double n0 = e1[1] * e2[2] - e1[2] * e2[1];
+    const double n1 = e1[2] * e2[0] - e1[0] * e2[2];
+    const double n2 = e1[0] * e2[1] - e1[1] * e2[0];
+    const double den = double(r.dir[0]) * n0 + double(r.dir[1]) * n1 + double(r.dir[2]) * n2;
+    const double plane = (w[0] * n0 + w[1] * n1 + w[2] * n2) / den;
+    double enter = -INFINITY, leave = INFINITY;
+    for (int k = 0; k < 3; ++k) {
+        if (r.dir[k] == 0.0f) continue;
+        const double lo = std::fmin(std::fmin(p0[k], p1[k]), p2[k]) - double(r.org[k]);
+        const double hi = std::fmax(std::fmax(p0[k], p1[k]), p2[k]) - double(r.org[k]);
+        const double a = lo / double(r.dir[k]), b = hi / double(r.dir[k]);
+        enter = std::fmax(enter, std::fmin(a, b));
+        leave = std::fmin(leave, std::fmax(a, b));
+    }
+    // A plane the ray runs along in double (a nearly collinear triangle the
+    // edge functions still found): where the ray enters the box.
+    t = std::isfinite(plane) ? std::fmax(std::fmin(plane, leave), enter) : enter;
+    return std::isfinite(t);
+}
+
 /// The tail of intersect_triangle() in double precision, from the same sheared
 /// vertices: products of floats are exact in double, so each edge function
 /// rounds once (in the difference) and its sign is exact (paper, section
@@ -61,20 +110,19 @@ inline bool has_area(const float *p0, const float *p1, const float *p2) {
 /// single-precision edge functions are zero, denormal, infinite or NaN (a ray
 /// on an edge; coordinates so small or large that the products leave float
 /// range), or the distance does not fit a float.
-inline bool intersect_triangle_double(float ax, float ay, float az, float bx, float by, float bz, float cx,
-                                      float cy, float cz, float sz, float tmin, float tmax, float &t, float &u,
-                                      float &v) {
+inline bool intersect_triangle_double(const TriangleRay &r, const float *p0, const float *p1, const float *p2,
+                                      float ax, float ay, float bx, float by, float cx, float cy, float tmin,
+                                      float tmax, float &t, float &u, float &v) {
     const double eu = double(cx) * double(by) - double(cy) * double(bx);
     const double ev = double(ax) * double(cy) - double(ay) * double(cx);
     const double ew = double(bx) * double(ay) - double(by) * double(ax);
     if ((eu < 0.0 || ev < 0.0 || ew < 0.0) && (eu > 0.0 || ev > 0.0 || ew > 0.0)) return false;
     const double det = eu + ev + ew;
     if (det == 0.0) return false;
-    const double tscaled = eu * (double(sz) * az) + ev * (double(sz) * bz) + ew * (double(sz) * cz);
     // Compared in double: a distance that rounds to tmin in float may lie
     // just outside the window.
-    const double th = tscaled / det;
-    if (!(th >= tmin && th <= tmax) || std::fabs(th) > FLT_MAX) return false;
+    double th;
+    if (!triangle_distance(r, p0, p1, p2, th) || !(th >= tmin && th <= tmax) || std::fabs(th) > FLT_MAX) return false;
     t = float(th);
     u = float(ev / det);
     v = float(ew / det);
@@ -117,7 +165,7 @@ inline bool intersect_triangle(const TriangleRay &r, const float *p0, const floa
             !std::isnan(eu) && !std::isnan(ev) && !std::isnan(ew))
             return false;
         if (!has_area(p0, p1, p2)) return false;
-        return intersect_triangle_double(ax, ay, az, bx, by, bz, cx, cy, cz, r.sz, tmin, tmax, t, u, v);
+        return intersect_triangle_double(r, p0, p1, p2, ax, ay, bx, by, cx, cy, tmin, tmax, t, u, v);
     }
     // Two-sided: all three on one side.
     if ((eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f))
@@ -130,17 +178,14 @@ inline bool intersect_triangle(const TriangleRay &r, const float *p0, const floa
     const float mag = std::fabs(cx * by) + std::fabs(ax * cy) + std::fabs(bx * ay);
     if (mu + mv + mw <= 0x1p-18f * mag && !has_area(p0, p1, p2)) return false;
 
-    const float tu = eu * (r.sz * az), tv = ev * (r.sz * bz), tw = ew * (r.sz * cz);
-    // A true division for t (one rounding: a hit exactly at tmin or tmax
-    // stays in range); the barycentrics share one reciprocal.
-    const float th = (tu + tv + tw) / det;
-    // Terms near the denormal range (tiny triangles seen from far along a
-    // short direction) would lose digits, and huge ones overflow: double.
-    if (!std::isfinite(th) || !std::isfinite(det) || std::fabs(tu) + std::fabs(tv) + std::fabs(tw) < 0x1p-100f)
-        return intersect_triangle_double(ax, ay, az, bx, by, bz, cx, cy, cz, r.sz, tmin, tmax, t, u, v);
-    if (!(th >= tmin && th <= tmax)) return false;
+    if (!std::isfinite(det))
+        return intersect_triangle_double(r, p0, p1, p2, ax, ay, bx, by, cx, cy, tmin, tmax, t, u, v);
+    // The distance in double (triangle_distance()), compared with the window in
+    // double so that a hit just outside it stays out after rounding.
+    double th;
+    if (!triangle_distance(r, p0, p1, p2, th) || !(th >= tmin && th <= tmax) || std::fabs(th) > FLT_MAX) return false;
     const float inv_det = 1.0f / det;
-    t = th;
+    t = float(th);
     u = ev * inv_det;
     v = ew * inv_det;
     return true;
