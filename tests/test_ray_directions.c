@@ -7,6 +7,8 @@
  *   - rays starting on a surface (t = 0 counts with tmin = 0, not with
  *     tmin > 0), tmin = tmax (a hit only where the surface is exactly there),
  *     tmin > tmax (always a miss);
+ *   - directions from the smallest denormal to near FLT_MAX hit what their
+ *     normalised twins hit, where the answer fits a float;
  *   - invalid rays (zero direction, NaN in any field, infinite origin or
  *     direction) miss without disturbing the other rays of their batch, while
  *     an infinite tmax (or -infinite tmin) is an ordinary ray.
@@ -434,12 +436,76 @@ static void test_box_entry_before_float(void **state) {
     }
 }
 
+/* Every finite non-zero direction hits what its normalised twin hits, at
+ * the t that makes the same point, wherever that t fits a float: a square of
+ * two triangles (and a box) in the plane x = 0.001, rays from near the
+ * origin with directions from the smallest denormal to near FLT_MAX. Once
+ * 1 / dir overflowed in the ray set-up and (1e-40, 0, 0) missed a triangle
+ * it reaches at t = 1e37. */
+static void test_tiny_and_huge_directions(void **state) {
+    (void)state;
+    const float square[] = {0.001f, -1.0f, -1.0f, 0.001f, 1.0f, -1.0f, 0.001f, 1.0f, 1.0f, 0.001f, -1.0f, 1.0f};
+    const uint32_t indices[] = {0, 1, 2, 0, 2, 3};
+    const float box[6] = {0.001f, -1.0f, -1.0f, 0.002f, 1.0f, 1.0f};
+    const float scales[] = {1.4e-45f, 1e-44f, 1e-41f, 1e-40f, 1e-38f, 1e-30f, 1e-12f, 1.0f, 1e12f, 1e30f, 3e38f};
+    const float shapes[][3] = {{1, 0, 0}, {1, 0.1f, 0}, {1, 0.1f, 0.2f}, {1, -0.3f, 0.05f}};
+    for (int geometry = 0; geometry < 2; ++geometry)
+        for (int layout = AACBVH_LAYOUT_BINARY; layout <= AACBVH_LAYOUT_WIDE4; ++layout) {
+            aacbvh_context *ctx;
+            aacbvh_bvh *bvh;
+            ts_create(1, &ctx, &bvh);
+            TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, layout), AACBVH_OK);
+            if (geometry == 0)
+                TS_EXPECT_STATUS(aacbvh_bvh_set_triangles(bvh, square, 4, 12, indices, 2), AACBVH_OK);
+            else
+                TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(bvh, box, 1, sizeof box), AACBVH_OK);
+            TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+            for (size_t si = 0; si < sizeof shapes / sizeof shapes[0]; ++si) {
+                aacbvh_ray twin = {{0.0f, 0.1f, 0.2f}, 0.0f, {0, 0, 0}, INFINITY};
+                aacbvh_hit want;
+                double len = 0.0;
+                for (int k = 0; k < 3; ++k) len += (double)shapes[si][k] * shapes[si][k];
+                for (int k = 0; k < 3; ++k) twin.dir[k] = (float)(shapes[si][k] / sqrt(len));
+                TS_EXPECT_STATUS(aacbvh_bvh_intersect(bvh, &twin, &want, 1), AACBVH_OK);
+                assert_int_not_equal(want.prim_id, AACBVH_INVALID_ID);
+                for (size_t ci = 0; ci < sizeof scales / sizeof scales[0]; ++ci) {
+                    aacbvh_ray ray = twin;
+                    aacbvh_hit hit;
+                    uint8_t occluded = 7;
+                    for (int k = 0; k < 3; ++k) ray.dir[k] = shapes[si][k] * scales[ci];
+                    if (ray.dir[1] == 0.0f && shapes[si][1] != 0.0f) continue; /* a component underflowed */
+                    if (ray.dir[2] == 0.0f && shapes[si][2] != 0.0f) continue;
+                    TS_EXPECT_STATUS(aacbvh_bvh_intersect(bvh, &ray, &hit, 1), AACBVH_OK);
+                    TS_EXPECT_STATUS(aacbvh_bvh_occluded(bvh, &ray, &occluded, 1), AACBVH_OK);
+                    /* The exact t makes x = 0.001 (the entry face of the box too); a denormal t
+                     * (huge directions) is as exact as its few bits allow. */
+                    const double exact = (0.001f - (double)ray.org[0]) / (double)ray.dir[0];
+                    if (exact > FLT_MAX) {
+                        if (hit.prim_id != AACBVH_INVALID_ID || occluded)
+                            fail_msg("geometry %d layout %d dir %a %a %a: exact t %g is past FLT_MAX, got prim %u "
+                                     "at %g", geometry, layout, (double)ray.dir[0], (double)ray.dir[1],
+                                     (double)ray.dir[2], exact, hit.prim_id, (double)hit.t);
+                        continue;
+                    }
+                    if (hit.prim_id != want.prim_id || !occluded || !(fabs(hit.t - exact) <= 4e-7 * exact + 3e-45))
+                        fail_msg("geometry %d layout %d dir %a %a %a: prim %u at t = %.9g (occluded %u); its "
+                                 "normalised twin hits prim %u, exact t %.9g",
+                                 geometry, layout, (double)ray.dir[0], (double)ray.dir[1], (double)ray.dir[2],
+                                 hit.prim_id, (double)hit.t, occluded, want.prim_id, exact);
+                }
+            }
+            aacbvh_bvh_destroy(bvh);
+            aacbvh_context_destroy(ctx);
+        }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_axis_parallel),
         cmocka_unit_test(test_zero_and_denormal_components),
         cmocka_unit_test(test_box_entry_beyond_float),
         cmocka_unit_test(test_box_entry_before_float),
+        cmocka_unit_test(test_tiny_and_huge_directions),
         cmocka_unit_test(test_surface_origin_and_windows),
         cmocka_unit_test(test_empty_windows_always_miss),
         cmocka_unit_test(test_invalid_rays_in_a_batch),

@@ -446,14 +446,30 @@ typedef struct aacbvh_hit {
  * Closest hit of each of `count` rays. Triangles are two-sided and tested
  * watertight (Woop, Benthin, Wald 2013): a ray through a shared edge or
  * vertex of a closed mesh hits it; triangles of zero area are never hit.
- * Accuracy: for a triangle hit, |t - t_exact| <= 1e-5 * (|t_exact| +
- * (L + E^2 / (100 h)) / |dir|) / |cos theta|, where L is the largest distance
- * from the ray origin to a vertex of the triangle, E its longest edge, h its
- * smallest height (that term matters only for slivers) and theta the angle
- * between the ray and the triangle's normal. The hit is the nearest triangle
- * unless another lies within that tolerance of it, or the ray passes within
- * about 1e-5 L of the nearest one's edge. Returns AACBVH_OK,
- * AACBVH_ERROR_INVALID_ARGUMENT (NULL with count > 0) or
+ *
+ * Accuracy (since 1.1.0): a triangle hit's t is the distance along the ray to
+ * the triangle's plane, computed in double precision from the float inputs
+ * and rounded to float once: |t - t_exact| <= 2^-23 |t_exact| + 2^-46 (L +
+ * E^2 / h) / (|dir| |cos theta|), where t_exact is the exact distance to the
+ * plane, L the largest distance from the ray origin to a vertex of the
+ * triangle, E its longest edge, h its smallest height (that term matters only
+ * for slivers) and theta the angle between the ray and the triangle's normal.
+ * In practice t is within an ulp of t_exact, also for short rays towards
+ * large triangles. Exception: a ray that passes within about 1e-5 L of an
+ * edge of the triangle may be counted as a hit although it misses it by that
+ * much (this is what keeps meshes watertight); if it also grazes the plane,
+ * its t is kept where the ray is inside the triangle's bounding box. The hit
+ * is the nearest triangle unless another lies within that tolerance of it.
+ * Of hits at exactly the same t, the one with the smaller prim_id is
+ * reported, in every layout, storage and thread count.
+ *
+ * Directions: any finite, non-zero direction, of any length from the
+ * smallest denormal to FLT_MAX, hits what its normalised twin hits, with t in
+ * units of the direction given, wherever that t fits a float (a direction
+ * far from unit length is scaled by a power of two inside, exactly). A zero
+ * direction misses everything.
+ *
+ * Returns AACBVH_OK, AACBVH_ERROR_INVALID_ARGUMENT (NULL with count > 0) or
  * AACBVH_ERROR_INVALID_OPERATION (no valid tree). Thread-safe on a built BVH.
  * The caller owns both arrays; they are used only during the call, which runs
  * on the context's threads.

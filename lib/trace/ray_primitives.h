@@ -4,6 +4,7 @@
 // each adapter finds that slot's primitive its own way.
 #pragma once
 
+#include <cfloat>
 #include <cmath>
 #include <cstdint>
 
@@ -22,6 +23,39 @@ inline bool ray_is_valid(const aacbvh_ray &ray) {
     if (std::isnan(ray.tmin) || std::isnan(ray.tmax)) return false;
     return ray.dir[0] != 0.0f || ray.dir[1] != 0.0f || ray.dir[2] != 0.0f;
 }
+
+/// A ray whose direction is far from unit length, traversed as its twin
+/// with the direction scaled by a power of two (exactly) and t scaled to
+/// match: org + t dir = org + (t 2^shift) (dir 2^-shift). Without it, a
+/// direction like (1e-40, 0, 0) overflows 1 / dir and misses a triangle it
+/// reaches at t = 1e37. Directions whose largest component lies in
+/// [2^-32, 2^32] are left as they are (shift 0), so ordinary rays take the
+/// usual path bit for bit. The window is cut to [-FLT_MAX, FLT_MAX] first (a
+/// hit's t is always finite); a finite tmin that scales below the denormals
+/// becomes 0.
+struct ScaledRay {
+    aacbvh_ray ray;
+    int shift = 0;
+
+    explicit ScaledRay(const aacbvh_ray &r) : ray(r) {
+        const float m = std::fmax(std::fabs(r.dir[0]), std::fmax(std::fabs(r.dir[1]), std::fabs(r.dir[2])));
+        if (m >= 0x1p-32f && m <= 0x1p32f) return;
+        int e;
+        std::frexp(m, &e); // m = f 2^e, f in [0.5, 1)
+        shift = e;
+        for (int k = 0; k < 3; ++k) ray.dir[k] = std::ldexp(r.dir[k], -e);
+        ray.tmin = std::ldexp(std::fmax(r.tmin, -FLT_MAX), e);
+        ray.tmax = std::ldexp(std::fmin(r.tmax, FLT_MAX), e);
+    }
+    /// The hit of the scaled ray as a hit of the caller's ray.
+    void unscale(aacbvh_hit &hit) const {
+        if (shift == 0 || hit.prim_id == AACBVH_INVALID_ID) return;
+        hit.t = std::ldexp(hit.t, -shift);
+        // Saturation follows the window cut above: entries clamp at -FLT_MAX.
+        if (hit.t < -FLT_MAX) hit.t = -FLT_MAX;
+        if (hit.t > FLT_MAX) hit.t = FLT_MAX;
+    }
+};
 
 inline void set_miss(aacbvh_hit &hit) {
     hit.t = INFINITY;

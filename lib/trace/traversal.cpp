@@ -86,10 +86,14 @@ bool query(const Bvh &bvh, const Geometry &geometry, const float *triangles, con
         set_miss(hit);
         return false;
     }
-    const BoxRay box_ray = make_box_ray(ray.org, ray.dir);
-    return with_primitives(geometry, bvh.prim_ids.data(), triangles, ray, box_ray, [&](const auto &prims) {
-        return traverse<AnyHit>(bvh, prims, box_ray, ray.tmin, ray.tmax, hit, counters);
-    });
+    const ScaledRay scaled(ray);
+    const BoxRay box_ray = make_box_ray(scaled.ray.org, scaled.ray.dir);
+    const bool found =
+        with_primitives(geometry, bvh.prim_ids.data(), triangles, scaled.ray, box_ray, [&](const auto &prims) {
+            return traverse<AnyHit>(bvh, prims, box_ray, scaled.ray.tmin, scaled.ray.tmax, hit, counters);
+        });
+    if (!AnyHit) scaled.unscale(hit);
+    return found;
 }
 
 } // namespace

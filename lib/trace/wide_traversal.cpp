@@ -230,11 +230,15 @@ bool query(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const 
         set_miss(hit);
         return false;
     }
-    const BoxRay box_ray = make_box_ray(ray.org, ray.dir);
+    const ScaledRay scaled(ray);
+    const BoxRay box_ray = make_box_ray(scaled.ray.org, scaled.ray.dir);
     const WideRay wide_ray = make_wide_ray(box_ray);
-    return with_primitives(geometry, bvh.prim_ids.data(), triangles, ray, box_ray, [&](const auto &prims) {
-        return traverse<AnyHit>(wide, bvh, prims, wide_ray, ray.tmin, ray.tmax, hit);
-    });
+    const bool found =
+        with_primitives(geometry, bvh.prim_ids.data(), triangles, scaled.ray, box_ray, [&](const auto &prims) {
+            return traverse<AnyHit>(wide, bvh, prims, wide_ray, scaled.ray.tmin, scaled.ray.tmax, hit);
+        });
+    if (!AnyHit) scaled.unscale(hit);
+    return found;
 }
 
 } // namespace
