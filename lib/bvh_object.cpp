@@ -138,7 +138,6 @@ void BvhObject::build() {
     Bvh result;
     WideBvh wide;
     Array<float> triangles;
-    double sah_cost = 0.0;
     uint64_t invalid_count = 0;
     {
         const MemoryMeter::Scope metered(meter);
@@ -158,7 +157,7 @@ void BvhObject::build() {
             Array<Box>().swap(input.boxes); // flattening needs only the tree
             Array<uint32_t>().swap(input.prim_ids);
             if (!decided) choose_subtrees(tree, rule, ctx, choices);
-            sah_cost = emit_bvh(tree, rule, choices, ctx, result);
+            emit_bvh(tree, rule, choices, ctx, result);
         }
         if (params.layout == AACBVH_LAYOUT_WIDE4) wide.build(result, scheduler_);
         if (geometry_.kind == GeometryKind::Triangles && params.triangle_storage == AACBVH_TRIANGLES_COPIED) {
@@ -180,9 +179,9 @@ void BvhObject::build() {
     valid_ = true;
     {
         std::lock_guard<std::mutex> lock(figures_mutex_);
-        figures_known_ = false; // measured on the first stats call
+        figures_known_ = false;     // measured on the first stats call
+        built_areas_known_ = false; // the same, until a refit changes the boxes
     }
-    built_sah_cost_ = sah_cost;
     build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
@@ -221,6 +220,16 @@ void BvhObject::refit() {
         Array<float>().swap(triangles_);
     else if (triangles_.size() != 9 * bvh_.prim_ids.size())
         triangles_.resize(9 * bvh_.prim_ids.size());
+    {
+        // The built tree's area sums, kept before the first refit changes
+        // them: built_sah_cost is then given for the costs in force, like
+        // sah_cost, so their ratio (the drift) is 1 when nothing moved.
+        std::lock_guard<std::mutex> lock(figures_mutex_);
+        if (!built_areas_known_) {
+            built_areas_ = figures_known_ ? figures_.areas : sum_areas(bvh_, scheduler_);
+            built_areas_known_ = true;
+        }
+    }
     refit_tree(bvh_, geometry_, scheduler_);
     if (copied) copy_triangles(bvh_, triangles_.data());
     {
@@ -261,7 +270,12 @@ void BvhObject::stats(aacbvh_stats &out) const {
                        held_bytes(triangles_) + out.kept_build_bytes;
     out.invalid_primitive_count = invalid_count_;
     out.build_peak_bytes = build_peak_bytes_;
-    out.built_sah_cost = built_sah_cost_;
+    AreaSums built;
+    {
+        std::lock_guard<std::mutex> lock(figures_mutex_);
+        built = built_areas_known_ ? built_areas_ : f.areas; // no refit since the build: the same tree
+    }
+    out.built_sah_cost = built.sah_cost(params.traversal_cost, params.intersection_cost);
     out.build_seconds = build_seconds_;
 }
 

@@ -82,11 +82,12 @@ private:
     size_t built_primitive_count_ = 0; ///< geometry's primitive count at the last build
     uint64_t invalid_count_ = 0;
     uint64_t build_peak_bytes_ = 0;
-    double built_sah_cost_ = 0.0;
     double build_seconds_ = 0.0;
     mutable std::mutex figures_mutex_; // stats may be read from several threads
     mutable bool figures_known_ = false;
     mutable TreeFigures figures_;
+    mutable bool built_areas_known_ = false; ///< set by the first refit after a build
+    mutable AreaSums built_areas_;           ///< the built tree's, for built_sah_cost
     aacbvh_progress_fn progress_ = nullptr;
     void *progress_user_ = nullptr;
     /// A build is running (so a call from its own progress callback that would

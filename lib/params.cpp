@@ -12,6 +12,10 @@ namespace {
 
 [[noreturn]] void reject(const std::string &what) { throw Error(AACBVH_ERROR_INVALID_ARGUMENT, what); }
 
+/// Largest SAH cost constant: with 2^31 primitives the normalised SAH cost
+/// stays below 1e41, finite in double (the reported stats).
+constexpr double kMaxCost = 1e30;
+
 bool is_int_key(int32_t key) {
     switch (key) {
     case AACBVH_PARAM_BUILDER:
@@ -120,11 +124,13 @@ void Params::set_float(int32_t key, double value) {
         builder = AACBVH_BUILDER_AAC;
         break;
     case AACBVH_PARAM_TRAVERSAL_COST:
-        if (!(value > 0.0)) reject("traversal cost must be > 0, got " + std::to_string(value));
+        if (!(value > 0.0 && value <= kMaxCost))
+            reject("traversal cost must be in (0, 1e30], got " + std::to_string(value));
         traversal_cost = value;
         break;
     case AACBVH_PARAM_INTERSECTION_COST:
-        if (!(value > 0.0)) reject("intersection cost must be > 0, got " + std::to_string(value));
+        if (!(value > 0.0 && value <= kMaxCost))
+            reject("intersection cost must be in (0, 1e30], got " + std::to_string(value));
         intersection_cost = value;
         break;
     default:

@@ -269,6 +269,25 @@ static void test_sah_cost_follows_params(void **state) {
         fail_msg("after changing the costs, sah_cost %.17g, expected %.17g (was %.17g)", s2.sah_cost,
                  ts_tree_sah_cost(&t, 3.0, 0.5), s1.sah_cost);
     assert_true(s2.sah_cost != s1.sah_cost);
+    /* built_sah_cost uses the costs in force too: the drift stays 1. */
+    if (s2.built_sah_cost != s2.sah_cost)
+        fail_msg("after changing the costs, built_sah_cost %.17g but sah_cost %.17g", s2.built_sah_cost, s2.sah_cost);
+    /* A refit of unmoved geometry: drift exactly 1, whatever the costs did. */
+    TS_EXPECT_STATUS(aacbvh_bvh_refit(bvh), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_TRAVERSAL_COST, 1.7), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_get_stats(bvh, &s2), AACBVH_OK);
+    if (s2.sah_cost / s2.built_sah_cost != 1.0)
+        fail_msg("unmoved refit: drift %.17g", s2.sah_cost / s2.built_sah_cost);
+    /* The largest costs allowed give finite stats; larger ones are refused. */
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_TRAVERSAL_COST, 1e30), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_INTERSECTION_COST, 1e-300), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_get_stats(bvh, &s2), AACBVH_OK);
+    assert_true(isfinite(s2.sah_cost) && isfinite(s2.built_sah_cost) && s2.sah_cost == s2.built_sah_cost);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_TRAVERSAL_COST, 1e31), AACBVH_ERROR_INVALID_ARGUMENT);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_INTERSECTION_COST, 1e300),
+                     AACBVH_ERROR_INVALID_ARGUMENT);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_TRAVERSAL_COST, 3.0), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_INTERSECTION_COST, 0.5), AACBVH_OK);
     /* The checker reads the costs in force as well. */
     if (!ts_check_tree(bvh, boxes, mesh.triangle_count, NULL, 4, msg, sizeof msg)) fail_msg("%s", msg);
     /* The tree itself did not change. */

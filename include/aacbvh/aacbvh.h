@@ -199,9 +199,9 @@ typedef enum aacbvh_param {
     /** float in (0, 1]: alpha in f(n). c = 1, alpha = 1 is exact agglomerative
      *  clustering. Setting it switches the builder to AACBVH_BUILDER_AAC. */
     AACBVH_PARAM_AAC_ALPHA = 4,
-    /** float > 0 (finite): SAH cost of visiting an inner node. Default 1.2. */
+    /** float in (0, 1e30]: SAH cost of visiting an inner node. Default 1.2. */
     AACBVH_PARAM_TRAVERSAL_COST = 5,
-    /** float > 0 (finite): SAH cost of one primitive test. Default 1.0. */
+    /** float in (0, 1e30]: SAH cost of one primitive test. Default 1.0. */
     AACBVH_PARAM_INTERSECTION_COST = 6,
     /** int in [1, 1024]: PLOC's nearest-neighbour search radius. Default 16. */
     AACBVH_PARAM_PLOC_RADIUS = 7,
@@ -371,7 +371,7 @@ typedef struct aacbvh_stats {
     uint64_t memory_bytes;         /**< every byte the BVH handle holds: tree, traversal layout, triangle copy, kept build memory */
     uint64_t invalid_primitive_count; /**< primitives left out by AACBVH_PARAM_SKIP_INVALID_PRIMITIVES */
     uint64_t build_peak_bytes;     /**< most bytes the last build held at once, the finished tree included */
-    double built_sah_cost;         /**< sah_cost right after the last build, before any refit */
+    double built_sah_cost;         /**< sah_cost of the tree as the last build made it (before any refit), with the costs in force now: sah_cost / built_sah_cost is 1 when nothing moved */
     double build_seconds;          /**< wall time of the last successful build */
     /* Since 1.1.0: */
     uint64_t kept_build_bytes;     /**< of memory_bytes, the blocks kept for the next build (AACBVH_PARAM_KEEP_BUILD_MEMORY); 0 without it */
