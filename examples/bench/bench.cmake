@@ -34,6 +34,19 @@ else()
   message(STATUS "aacbvh-bench: Embree 3 not found or disabled, benchmark without it")
 endif()
 
+# aacbvh-hit-accuracy: how exact the hit distances are, ours against Embree's
+# (relative error of t against the double-precision ray-plane distance), with
+# Embree compiled in under the same conditions as aacbvh-bench.
+add_executable(aacbvh-hit-accuracy ${_bench_dir}/hit_accuracy.cpp)
+target_compile_options(aacbvh-hit-accuracy PRIVATE -Wall -Wextra)
+target_link_libraries(aacbvh-hit-accuracy PRIVATE aacbvh_bench_core aacbvh_scene)
+target_compile_definitions(aacbvh-hit-accuracy PRIVATE AACBVH_SCENES_DIR="${AACBVH_SCENES_DIR}")
+if(AACBVH_BENCH_EMBREE AND EMBREE3_INCLUDE_DIR AND EMBREE3_LIBRARY AND NOT AACBVH_SANITIZE)
+  target_compile_definitions(aacbvh-hit-accuracy PRIVATE AACBVH_BENCH_HAVE_EMBREE=1)
+  target_include_directories(aacbvh-hit-accuracy PRIVATE ${EMBREE3_INCLUDE_DIR})
+  target_link_libraries(aacbvh-hit-accuracy PRIVATE ${EMBREE3_LIBRARY})
+endif()
+
 if(AACBVH_BUILD_TESTS)
   # The ray-cost counter on a hand-built tree whose counts are known exactly.
   add_executable(test_ray_cost ${_bench_dir}/test_ray_cost.cpp)
