@@ -85,4 +85,15 @@ if(AACBVH_BUILD_TESTS)
             --svg ${CMAKE_CURRENT_BINARY_DIR}/bench_smoke.svg
             --markdown ${CMAKE_CURRENT_BINARY_DIR}/bench_smoke.md)
   set_tests_properties(bench_smoke PROPERTIES TIMEOUT 300)
+
+  # Smoke test of aacbvh-hit-accuracy: a small generated scene; it must exit 0
+  # and print the accuracy table's header (run_expect.cmake checks both, as
+  # PASS_REGULAR_EXPRESSION alone would ignore the exit status).
+  add_test(NAME bench_hit_accuracy_smoke
+    COMMAND ${CMAKE_COMMAND}
+            -DPROGRAM=$<TARGET_FILE:aacbvh-hit-accuracy>
+            "-DARGS=--scenes procedural-small --size 32 --runs 1 --markdown ${CMAKE_CURRENT_BINARY_DIR}/bench_hit_accuracy_smoke.md"
+            "-DEXPECT=\\| scene \\| rays \\| library \\| hits \\| measured \\| max rel\\. error \\|"
+            -P ${_bench_dir}/run_expect.cmake)
+  set_tests_properties(bench_hit_accuracy_smoke PROPERTIES TIMEOUT 300)
 endif()
