@@ -34,6 +34,19 @@ else()
   message(STATUS "aacbvh-bench: Embree 3 not found or disabled, benchmark without it")
 endif()
 
+# aacbvh-hit-accuracy: how exact the hit distances are, ours against Embree's
+# (relative error of t against the double-precision ray-plane distance), with
+# Embree compiled in under the same conditions as aacbvh-bench.
+add_executable(aacbvh-hit-accuracy ${_bench_dir}/hit_accuracy.cpp)
+target_compile_options(aacbvh-hit-accuracy PRIVATE -Wall -Wextra)
+target_link_libraries(aacbvh-hit-accuracy PRIVATE aacbvh_bench_core aacbvh_scene)
+target_compile_definitions(aacbvh-hit-accuracy PRIVATE AACBVH_SCENES_DIR="${AACBVH_SCENES_DIR}")
+if(AACBVH_BENCH_EMBREE AND EMBREE3_INCLUDE_DIR AND EMBREE3_LIBRARY AND NOT AACBVH_SANITIZE)
+  target_compile_definitions(aacbvh-hit-accuracy PRIVATE AACBVH_BENCH_HAVE_EMBREE=1)
+  target_include_directories(aacbvh-hit-accuracy PRIVATE ${EMBREE3_INCLUDE_DIR})
+  target_link_libraries(aacbvh-hit-accuracy PRIVATE ${EMBREE3_LIBRARY})
+endif()
+
 if(AACBVH_BUILD_TESTS)
   # The ray-cost counter on a hand-built tree whose counts are known exactly.
   add_executable(test_ray_cost ${_bench_dir}/test_ray_cost.cpp)
@@ -72,4 +85,15 @@ if(AACBVH_BUILD_TESTS)
             --svg ${CMAKE_CURRENT_BINARY_DIR}/bench_smoke.svg
             --markdown ${CMAKE_CURRENT_BINARY_DIR}/bench_smoke.md)
   set_tests_properties(bench_smoke PROPERTIES TIMEOUT 300)
+
+  # Smoke test of aacbvh-hit-accuracy: a small generated scene; it must exit 0
+  # and print the accuracy table's header (run_expect.cmake checks both, as
+  # PASS_REGULAR_EXPRESSION alone would ignore the exit status).
+  add_test(NAME bench_hit_accuracy_smoke
+    COMMAND ${CMAKE_COMMAND}
+            -DPROGRAM=$<TARGET_FILE:aacbvh-hit-accuracy>
+            "-DARGS=--scenes procedural-small --size 32 --runs 1 --markdown ${CMAKE_CURRENT_BINARY_DIR}/bench_hit_accuracy_smoke.md"
+            "-DEXPECT=\\| scene \\| rays \\| library \\| hits \\| measured \\| max rel\\. error \\|"
+            -P ${_bench_dir}/run_expect.cmake)
+  set_tests_properties(bench_hit_accuracy_smoke PROPERTIES TIMEOUT 300)
 endif()
