@@ -13,6 +13,32 @@
 
 namespace aacbvh {
 
+namespace testing {
+/// Least time between two progress calls made by poll(), in milliseconds
+/// (5). Tests set 0 to see a call at every poll and count the work between.
+extern std::atomic<int> poll_interval_ms;
+/// Distance evaluations made by the clustering builders (AAC's rows, PLOC's
+/// windows, locally-ordered's searches), counted where they are computed, for
+/// tests that bound the work between two progress calls. One relaxed atomic
+/// add per row or search, not per distance.
+extern std::atomic<uint64_t> distance_evaluations;
+inline void count_distances(uint64_t n) { distance_evaluations.fetch_add(n, std::memory_order_relaxed); }
+} // namespace testing
+
+/// Polls a build's context after every kPollWork units of a loop's work
+/// (distance evaluations, elements swept), so that the work between two
+/// chances to cancel is bounded however the loop's size grows.
+class PollingCounter {
+public:
+    static constexpr uint64_t kPollWork = uint64_t(1) << 20;
+    explicit PollingCounter(class BuildContext &ctx) : ctx_(ctx) {}
+    inline void add(uint64_t units);
+
+private:
+    class BuildContext &ctx_;
+    uint64_t done_ = 0;
+};
+
 class BuildContext {
 public:
     BuildContext(Scheduler &scheduler, aacbvh_progress_fn progress, void *user)
@@ -46,7 +72,8 @@ public:
         check_cancelled();
         if (!progress_ || std::this_thread::get_id() != owner_) return;
         const auto now = std::chrono::steady_clock::now();
-        if (now - last_call_ >= std::chrono::milliseconds(5)) report(fraction_);
+        if (now - last_call_ >= std::chrono::milliseconds(testing::poll_interval_ms.load(std::memory_order_relaxed)))
+            report(fraction_);
     }
     /// Cheap check that worker tasks may call anywhere.
     void check_cancelled() const {
@@ -66,5 +93,13 @@ private:
     bool in_callback_ = false; ///< only the owner thread calls the callback
     std::atomic<bool> cancelled_{false};
 };
+
+inline void PollingCounter::add(uint64_t units) {
+    done_ += units;
+    if (done_ >= kPollWork) {
+        done_ = 0;
+        ctx_.poll();
+    }
+}
 
 } // namespace aacbvh

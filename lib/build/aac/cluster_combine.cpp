@@ -142,17 +142,25 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
         return out;
     };
 
+    // Work between two polls is bounded in distance evaluations: a combine
+    // of 2^20 clusters (delta 2^20, or alpha = 1) does 2^40 in its first scan.
+    PollingCounter work(ctx);
+    auto rows_done = [&work](uint32_t rows, uint32_t length) {
+        testing::count_distances(uint64_t(rows) * length);
+        work.add(uint64_t(rows) * length);
+    };
+
     // The diagonal is +inf so that nearest-neighbour scans need no self test.
     for (uint32_t i = 0; i < count; ++i) {
         boxes.query(i, q);
         nn[i] = distance_row_argmin(boxes.columns(), count, q, scale, kMatrix ? matrix + size_t(i) * stride : matrix,
                                     i, nd[i]);
+        rows_done(1, count);
     }
 
     uint32_t live = count;
     uint32_t used = 0;
     while (live > target) {
-        if ((live & 1023) == 0) ctx.poll();
         float ignored;
         uint32_t a = argmin_row(nd, live, ignored); // the closest pair, lowest slot on ties
         uint32_t b = nn[a];
@@ -194,6 +202,7 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
         // reuse da's row, so da is read first.)
         const uint32_t rescans = update_nearest(da, nd, nn, live, a, b, last, rescan);
         for (uint32_t k = 0; k < rescans; ++k) nn[rescan[k]] = argmin_row(row(rescan[k], live), live, nd[rescan[k]]);
+        rows_done(1 + (kMatrix ? 0 : rescans), live);
     }
 
     // Unused ids move to the front of free_ids for the caller.

@@ -38,8 +38,6 @@ namespace aacbvh {
 namespace {
 
 constexpr uint32_t kNone = UINT32_MAX;
-/// Chain steps between two cancellation polls.
-constexpr uint32_t kCancelPoll = 4096;
 
 /// What the search tree keeps per node to bound distances: the largest lower
 /// corner and the smallest upper corner of the clusters below (each cluster a
@@ -105,15 +103,16 @@ public:
         chain.reserve(n_);
         chain.push_back(0);
         uint32_t next_id = n_;
-        uint32_t until_poll = kCancelPoll;
+        // Searches are O(log n) on typical scenes but may visit every slot on
+        // degenerate ones: polls follow the nodes visited.
+        PollingCounter work(ctx_);
         while (next_id < 2 * n_ - 1) {
-            if (--until_poll == 0) {
-                ctx_.poll();
-                until_poll = kCancelPoll;
-            }
             const uint32_t x = chain.back();
             const uint32_t prev = chain.size() >= 2 ? chain[chain.size() - 2] : kNone;
-            const uint32_t y = nearest(x, prev);
+            uint32_t visited = 0;
+            const uint32_t y = nearest(x, prev, visited);
+            testing::count_distances(visited);
+            work.add(visited + 1);
             if (y != prev) {
                 chain.push_back(y);
                 continue;
@@ -132,7 +131,7 @@ private:
     /// ties, which keeps the chain's distances strictly decreasing; other ties
     /// go to whichever the walk meets first. Until a candidate is found nothing
     /// is pruned, so infinite distances still yield one.
-    uint32_t nearest(uint32_t x, uint32_t prev) const {
+    uint32_t nearest(uint32_t x, uint32_t prev, uint32_t &visited) const {
         const Box q = out_.boxes[x];
         float best = prev == kNone ? INFINITY : scaled_union_half_area(q, out_.boxes[prev], scale_);
         uint32_t best_id = prev;
@@ -146,6 +145,7 @@ private:
         stack[top++] = Entry{1, 0.0f};
         while (top > 0) {
             const Entry e = stack[--top];
+            ++visited;
             if (!beats_best(e.bound)) continue;
             if (e.node >= leaf_base_) {
                 const uint32_t id = slot_node_[e.node - leaf_base_];

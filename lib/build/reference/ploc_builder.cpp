@@ -75,9 +75,12 @@ void build_ploc(const BuildInput &input, uint32_t radius, BuildContext &ctx, Bin
     while (count > 1) {
         ctx.poll();
         scheduler.parallel_for(0, count, kGrain, [&](size_t begin, size_t end) {
+            PollingCounter work(ctx); // a chunk is up to 2^14 windows of 2049 (radius 1024)
             for (size_t i = begin; i < end; ++i) {
                 const size_t lo = i > r ? i - r : 0;
                 const size_t hi = std::min(count, i + r + 1);
+                testing::count_distances(hi - lo - 1);
+                work.add(hi - lo);
                 float best = INFINITY;
                 size_t best_j = i;
                 // j ascending: of two candidates with equal distance, gap and

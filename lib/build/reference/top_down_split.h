@@ -27,8 +27,6 @@ namespace top_down {
 /// Splits whose two sides both hold at least this many primitives run as
 /// parallel tasks; smaller sub-trees stay on the current thread.
 constexpr uint32_t kForkMin = 4096;
-/// Nodes between two cancellation polls.
-constexpr uint32_t kCancelPoll = 4096;
 
 /// A range of the primitive order still to split, and where to write its id.
 struct RangeTask {
@@ -48,14 +46,11 @@ struct RangeTask {
 template <class Split>
 void split_all(BuildContext &ctx, RangeTask root, const Split &split) {
     std::vector<RangeTask> stack{root};
-    uint32_t until_poll = kCancelPoll;
+    PollingCounter work(ctx); // a split sweeps its range: polls follow the primitives swept
     while (!stack.empty()) {
         const RangeTask task = stack.back();
         stack.pop_back();
-        if (--until_poll == 0) {
-            ctx.poll();
-            until_poll = kCancelPoll;
-        }
+        work.add(task.size());
         if (task.size() < 2) {
             *task.id_slot = task.begin;
             continue;

@@ -1,0 +1,10 @@
+#include "build/build_context.h"
+
+namespace aacbvh {
+namespace testing {
+
+std::atomic<int> poll_interval_ms{5};
+std::atomic<uint64_t> distance_evaluations{0};
+
+} // namespace testing
+} // namespace aacbvh
