@@ -27,7 +27,8 @@ inline void count_distances(uint64_t n) { distance_evaluations.fetch_add(n, std:
 
 /// Polls a build's context after every kPollWork units of a loop's work
 /// (distance evaluations, elements swept), so that the work between two
-/// chances to cancel is bounded however the loop's size grows.
+/// chances to cancel is bounded however the loop's size grows; in between,
+/// only checks whether a cancel was already asked for.
 class PollingCounter {
 public:
     static constexpr uint64_t kPollWork = uint64_t(1) << 20;
@@ -99,6 +100,8 @@ inline void PollingCounter::add(uint64_t units) {
     if (done_ >= kPollWork) {
         done_ = 0;
         ctx_.poll();
+    } else {
+        ctx_.check_cancelled(); // one relaxed load: a cancel already asked stops at once
     }
 }
 
