@@ -103,6 +103,19 @@ inline bool triangle_distance(const TriangleRay &r, const float *p0, const float
     return std::isfinite(t);
 }
 
+/// triangle_distance() rounded to the float that is reported, and whether
+/// that float lies in [tmin, tmax]. The window is applied to the reported t,
+/// not to the double before rounding: a traversal's window ends at the best t
+/// reported so far, and a second triangle at exactly that t (a tie, decided
+/// by prim_id) must be accepted whichever was found first.
+inline bool reported_distance(const TriangleRay &r, const float *p0, const float *p1, const float *p2, float tmin,
+                              float tmax, float &t) {
+    double th;
+    if (!triangle_distance(r, p0, p1, p2, th) || !(std::fabs(th) <= FLT_MAX)) return false;
+    t = float(th);
+    return t >= tmin && t <= tmax;
+}
+
 /// The tail of intersect_triangle() in double precision, from the same sheared
 /// vertices: products of floats are exact in double, so each edge function
 /// rounds once (in the difference) and its sign is exact (paper, section
@@ -119,11 +132,7 @@ inline bool intersect_triangle_double(const TriangleRay &r, const float *p0, con
     if ((eu < 0.0 || ev < 0.0 || ew < 0.0) && (eu > 0.0 || ev > 0.0 || ew > 0.0)) return false;
     const double det = eu + ev + ew;
     if (det == 0.0) return false;
-    // Compared in double: a distance that rounds to tmin in float may lie
-    // just outside the window.
-    double th;
-    if (!triangle_distance(r, p0, p1, p2, th) || !(th >= tmin && th <= tmax) || std::fabs(th) > FLT_MAX) return false;
-    t = float(th);
+    if (!reported_distance(r, p0, p1, p2, tmin, tmax, t)) return false;
     u = float(ev / det);
     v = float(ew / det);
     return true;
@@ -180,12 +189,8 @@ inline bool intersect_triangle(const TriangleRay &r, const float *p0, const floa
 
     if (!std::isfinite(det))
         return intersect_triangle_double(r, p0, p1, p2, ax, ay, bx, by, cx, cy, tmin, tmax, t, u, v);
-    // The distance in double (triangle_distance()), compared with the window in
-    // double so that a hit just outside it stays out after rounding.
-    double th;
-    if (!triangle_distance(r, p0, p1, p2, th) || !(th >= tmin && th <= tmax) || std::fabs(th) > FLT_MAX) return false;
+    if (!reported_distance(r, p0, p1, p2, tmin, tmax, t)) return false;
     const float inv_det = 1.0f / det;
-    t = float(th);
     u = ev * inv_det;
     v = ew * inv_det;
     return true;
