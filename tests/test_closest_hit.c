@@ -58,8 +58,11 @@ static void run_scene(ts_scene_kind kind, float offset, float scale, double *wor
     transform_mesh(&m, offset, scale);
     aacbvh_ray *rays = malloc(RAYS * sizeof *rays);
     aacbvh_hit *hits = malloc(RAYS * sizeof *hits);
+    uint8_t *occ = malloc(RAYS);
+    const rr_scene scene = rr_triangles(m.vertices, 3, m.indices, m.triangle_count);
     assert_non_null(rays);
     assert_non_null(hits);
+    assert_non_null(occ);
     ts_rng rng;
     ts_rng_seed(&rng, 5);
     for (size_t i = 0; i < RAYS; ++i) rays[i] = aimed_ray(&rng, &m, offset, scale);
@@ -72,10 +75,11 @@ static void run_scene(ts_scene_kind kind, float offset, float scale, double *wor
                          AACBVH_OK);
         TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
         TS_EXPECT_STATUS(aacbvh_bvh_intersect(bvh, rays, hits, RAYS), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_occluded(bvh, rays, occ, RAYS), AACBVH_OK);
         size_t hit_count = 0;
         for (size_t i = 0; i < RAYS; ++i) {
             char msg[256];
-            if (!rr_check_hit(&rays[i], &hits[i], m.vertices, 3, m.indices, m.triangle_count, msg, sizeof msg, worst))
+            if (!rr_check_hit(&scene, &rays[i], &hits[i], occ[i], msg, sizeof msg, worst))
                 fail_msg("%s, offset %g, scale %g, builder %d, ray %zu: %s", ts_scene_name(kind), (double)offset,
                          (double)scale, (int)builders[b], i, msg);
             hit_count += hits[i].prim_id != AACBVH_INVALID_ID;
@@ -88,6 +92,7 @@ static void run_scene(ts_scene_kind kind, float offset, float scale, double *wor
     }
     free(rays);
     free(hits);
+    free(occ);
     ts_mesh_free(&m);
 }
 

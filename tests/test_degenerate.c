@@ -82,7 +82,10 @@ static void check_scene(const char *name, const ts_mesh *m, size_t ray_count) {
     float *boxes = m->triangle_count ? ts_mesh_boxes(m) : NULL;
     aacbvh_ray *rays = m->triangle_count ? aimed_rays(m, ray_count, 11) : NULL;
     aacbvh_hit *hits = malloc((ray_count ? ray_count : 1) * sizeof *hits);
+    uint8_t *occ = malloc(ray_count ? ray_count : 1);
+    const rr_scene scene = rr_triangles(m->vertices, 3, m->indices, m->triangle_count);
     assert_non_null(hits);
+    assert_non_null(occ);
     if (!rays) {
         /* Empty scene: rays of every kind, all must miss. */
         rays = malloc(ray_count * sizeof *rays);
@@ -108,9 +111,9 @@ static void check_scene(const char *name, const ts_mesh *m, size_t ray_count) {
             if (!ts_check_tree(bvh, boxes, m->triangle_count, NULL, (uint32_t)leaf, msg, sizeof msg))
                 fail_msg("%s, builder %d, leaf %d: %s", name, (int)k_builders[b], leaf, msg);
             TS_EXPECT_STATUS(aacbvh_bvh_intersect(bvh, rays, hits, ray_count), AACBVH_OK);
+            TS_EXPECT_STATUS(aacbvh_bvh_occluded(bvh, rays, occ, ray_count), AACBVH_OK);
             for (size_t i = 0; i < ray_count; ++i) {
-                if (!rr_check_hit(&rays[i], &hits[i], m->vertices, 3, m->indices, m->triangle_count, msg, sizeof msg,
-                                  NULL))
+                if (!rr_check_hit(&scene, &rays[i], &hits[i], occ[i], msg, sizeof msg, NULL))
                     fail_msg("%s, builder %d, leaf %d, ray %zu: %s", name, (int)k_builders[b], leaf, i, msg);
             }
             aacbvh_bvh_destroy(bvh);
@@ -119,6 +122,7 @@ static void check_scene(const char *name, const ts_mesh *m, size_t ray_count) {
     free(boxes);
     free(rays);
     free(hits);
+    free(occ);
 }
 
 static void run_kind(ts_scene_kind kind, size_t n) {

@@ -39,10 +39,11 @@ static void check_builder(int builder, const ts_mesh *mesh) {
     for (size_t t = 0; t < sizeof kThreadCounts / sizeof kThreadCounts[0]; ++t) {
         for (int run = 0; run < 2; ++run) {
             ts_tree tree;
+            char msg[512];
             fetch_tree(kThreadCounts[t], builder, mesh, &tree, run == 1);
-            if (!ts_tree_equal(&reference, &tree))
-                fail_msg("builder %d: tree with %u threads (run %d) differs from the 1-thread tree", builder,
-                         kThreadCounts[t], run);
+            if (!ts_tree_diff(&reference, &tree, msg, sizeof msg))
+                fail_msg("builder %d: tree with %u threads (run %d) differs from the 1-thread tree: %s", builder,
+                         kThreadCounts[t], run, msg);
             ts_tree_free(&tree);
         }
     }

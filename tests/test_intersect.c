@@ -1,18 +1,18 @@
 /*
  * Ray queries against brute force, through the public C API only.
  *
- * The reference is an independent double-precision test
- * (triangles, by the sides of the edges the ray passes on) or slab test
- * (boxes) over every primitive. Each primitive is
- * classified per ray as a certain hit, a certain miss, or "either" (within a
- * small margin of an edge or face, of tmin or tmax, or nearly parallel), so
- * the checks cannot flake on rounding:
+ * The reference is the tests' double-precision oracle (ray_reference.h):
+ * triangles by the sides of the edges the ray passes on, boxes by a slab
+ * test, over every primitive. Each primitive is classified per ray as a
+ * certain hit, a certain miss, or "either" (within rounding distance of an
+ * edge or face, of tmin or tmax, or nearly parallel), so the checks cannot
+ * flake on rounding (rr_check):
  *   closest hit: a miss is wrong only if some certain hit exists; a hit must
- *     name a primitive that is not a certain miss, at its reference distance
- *     (relative 1e-4, more for grazing hits), no farther than the nearest
- *     certain hit, and (1-u-v)
- *     v0 + u v1 + v v2 must be org + t dir;
- *   any hit: 1 if a certain hit exists, 0 if nothing can be hit.
+ *     name a primitive that is not a certain miss, within the documented
+ *     tolerance of its reference distance, no farther than the nearest
+ *     certain hit and the nearest unless another ties with it, and
+ *     (1-u-v) v0 + u v1 + v v2 must be org + t dir (u = v = 0 for boxes);
+ *   any hit: agrees with the closest hit.
  * Watertightness, exact tmin/tmax bounds, barycentric order, invalid rays and
  * empty scenes have exact checks of their own.
  */
@@ -28,8 +28,10 @@
 
 #include <aacbvh/aacbvh.h>
 
+#include "ray_reference.h"
+
 /* ------------------------------------------------------------------ */
-/* Random numbers and small vector helpers                            */
+/* Random numbers                                                     */
 /* ------------------------------------------------------------------ */
 
 typedef struct rng {
@@ -50,18 +52,6 @@ static float rng_range(rng *r, float lo, float hi) { return lo + (hi - lo) * rng
 static uint32_t rng_below(rng *r, uint32_t n) { return (uint32_t)(rng_next(r) % n); }
 static float rng_signed_zero(rng *r) { return (rng_next(r) & 1) ? 0.0f : -0.0f; }
 
-static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-static void cross3(const double a[3], const double b[3], double out[3]) {
-    out[0] = a[1] * b[2] - a[2] * b[1];
-    out[1] = a[2] * b[0] - a[0] * b[2];
-    out[2] = a[0] * b[1] - a[1] * b[0];
-}
-static double len3(const double a[3]) { return sqrt(dot3(a, a)); }
-static double dir_length(const aacbvh_ray *ray) {
-    const double d[3] = {ray->dir[0], ray->dir[1], ray->dir[2]};
-    return len3(d);
-}
-
 /* ------------------------------------------------------------------ */
 /* Scenes                                                             */
 /* ------------------------------------------------------------------ */
@@ -81,15 +71,6 @@ static void scene_free(scene *s) {
     free(s->data);
     free(s->indices);
     memset(s, 0, sizeof *s);
-}
-
-static const float *scene_vertex(const scene *s, uint32_t k) { return s->data + (size_t)k * VERTEX_FLOATS; }
-
-static void scene_triangle(const scene *s, uint32_t i, const float *v[3]) {
-    for (int j = 0; j < 3; ++j) {
-        const uint32_t k = s->indices ? s->indices[3 * (size_t)i + j] : (uint32_t)(3 * i + j);
-        v[j] = scene_vertex(s, k);
-    }
 }
 
 static void set_vertex(float *p, float x, float y, float z) {
@@ -203,7 +184,7 @@ static aacbvh_ray *make_rays(size_t count, uint64_t seed) {
             double d[3], len;
             do {
                 for (int k = 0; k < 3; ++k) d[k] = rng_range(&r, -1.0f, 1.0f);
-                len = len3(d);
+                len = rr_len(d);
             } while (len < 0.1 || len > 1.0);
             for (int k = 0; k < 3; ++k) {
                 ray->org[k] = (float)(0.5 + 2.0 * d[k] / len);
@@ -229,151 +210,6 @@ static aacbvh_ray *make_rays(size_t count, uint64_t seed) {
         if (ray->dir[0] == 0.0f && ray->dir[1] == 0.0f && ray->dir[2] == 0.0f) ray->dir[0] = 1.0f;
     }
     return rays;
-}
-
-/* ------------------------------------------------------------------ */
-/* Brute force with margins                                           */
-/* ------------------------------------------------------------------ */
-
-enum { REF_MISS = 0, REF_EITHER = 1, REF_HIT = 2 };
-
-/* Positions the float tests may be off by (scene units; the scenes are
- * unit-sized and float rounding is near 1e-7 here). */
-#define POS_MARGIN 1e-5
-#define T_REL_TOL 1e-4
-
-/* Distance tolerance: relative, with a floor of 1e-4 scene units so that hits
- * at t near 0 are not held to zero error. */
-static double t_tolerance(const aacbvh_ray *ray, double t) {
-    return T_REL_TOL * fmax(fabs(t), 1.0 / dir_length(ray));
-}
-
-/* Classifies triangle (a, b, c) for the ray and sets *t_out to the reference
- * distance and *tol_out to its tolerance (infinite when the ray is too close
- * to parallel for the distance to mean anything).
- *
- * Hit or miss is decided per edge by the side of the edge's line the ray
- * passes on (the sign of a scalar triple product). When the ray passes within
- * POS_MARGIN of an edge's line, moving the vertices by their rounding error
- * could change the answer: the triangle is then "either". The triple product
- * over |edge| |dir| is at most that distance, so the margin test errs on the
- * safe side. */
-static int ref_triangle(const aacbvh_ray *ray, const float *a, const float *b, const float *c,
-                        double *t_out, double *tol_out) {
-    const double d[3] = {ray->dir[0], ray->dir[1], ray->dir[2]};
-    const double dl = len3(d);
-    const float *v[3] = {a, b, c};
-    int pos = 0, neg = 0, unsure = 0;
-    for (int i = 0; i < 3; ++i) {
-        const float *p = v[i], *q = v[(i + 1) % 3];
-        double e[3], r[3], x[3];
-        for (int k = 0; k < 3; ++k) {
-            e[k] = (double)q[k] - p[k];
-            r[k] = (double)p[k] - ray->org[k];
-        }
-        cross3(r, d, x);
-        const double el = len3(e);
-        const double side = el > 0.0 ? dot3(e, x) / (el * dl) : 0.0;
-        if (side > POS_MARGIN) ++pos;
-        else if (side < -POS_MARGIN) ++neg;
-        else ++unsure;
-    }
-    *t_out = NAN;
-    *tol_out = INFINITY;
-    if (pos && neg) return REF_MISS; /* clearly outside one edge, clearly inside another */
-    /* Distance to the plane along the ray. */
-    double e1[3], e2[3], n[3], s[3];
-    for (int k = 0; k < 3; ++k) {
-        e1[k] = (double)b[k] - a[k];
-        e2[k] = (double)c[k] - a[k];
-        s[k] = (double)a[k] - ray->org[k];
-    }
-    cross3(e1, e2, n);
-    const double dn = dot3(d, n), nl = len3(n);
-    const double cosine = nl > 0.0 ? fabs(dn) / (nl * dl) : 0.0;
-    if (cosine < 1e-4) {
-        /* Nearly parallel: t is meaningless; only a ray clearly off the plane misses. */
-        if (nl > 0.0 && fabs(dot3(s, n)) / nl > POS_MARGIN) return REF_MISS;
-        return REF_EITHER;
-    }
-    const double t = dot3(s, n) / dn;
-    const double tol = t_tolerance(ray, t) + POS_MARGIN / (dl * cosine);
-    *t_out = t;
-    *tol_out = tol;
-    if (t < (double)ray->tmin - tol || t > (double)ray->tmax + tol) return REF_MISS;
-    if (unsure == 0 && t > (double)ray->tmin + tol && t < (double)ray->tmax - tol) return REF_HIT;
-    return REF_EITHER;
-}
-
-/* Slab test of box (lo - grow, hi + grow) within [tmin, tmax], in double;
- * grow < 0 shrinks only the axes thicker than 4 |grow| (a flat axis stays
- * flat). *t_out is the entry distance clamped to tmin. */
-static int slab_double(const aacbvh_ray *ray, const float *box, double grow, double tmin, double tmax,
-                       double *t_out) {
-    double t0 = tmin, t1 = tmax;
-    for (int k = 0; k < 3; ++k) {
-        double lo = box[k], hi = box[3 + k];
-        if (grow > 0.0 || hi - lo > -4.0 * grow) {
-            lo -= grow;
-            hi += grow;
-        }
-        const double o = ray->org[k], dk = ray->dir[k];
-        if (dk == 0.0) {
-            if (o < lo || o > hi) return 0;
-            continue;
-        }
-        double ta = (lo - o) / dk, tb = (hi - o) / dk;
-        if (ta > tb) { const double x = ta; ta = tb; tb = x; }
-        t0 = fmax(t0, ta);
-        t1 = fmin(t1, tb);
-    }
-    *t_out = t0;
-    return t0 <= t1;
-}
-
-/* Boxes: a certain hit if the box shrunk by POS_MARGIN is hit inside the
- * window narrowed by the distance tolerance, a certain miss if the grown box
- * is missed in the widened window. */
-static int ref_box(const aacbvh_ray *ray, const float *box, double *t_out, double *tol_out) {
-    double t, unused;
-    *t_out = NAN;
-    *tol_out = INFINITY;
-    const double tol_min = t_tolerance(ray, ray->tmin), tol_max = t_tolerance(ray, ray->tmax);
-    if (!slab_double(ray, box, POS_MARGIN, (double)ray->tmin - tol_min, (double)ray->tmax + tol_max, &unused))
-        return REF_MISS;
-    if (!slab_double(ray, box, 0.0, -INFINITY, INFINITY, &t)) return REF_EITHER;
-    t = fmax(t, (double)ray->tmin);
-    *t_out = t;
-    *tol_out = t_tolerance(ray, t);
-    if (slab_double(ray, box, -POS_MARGIN, (double)ray->tmin + tol_min, (double)ray->tmax - tol_max, &unused))
-        return REF_HIT;
-    return REF_EITHER;
-}
-
-static int ref_classify(const scene *s, const aacbvh_ray *ray, uint32_t prim, double *t, double *tol) {
-    if (s->is_boxes) return ref_box(ray, s->data + (size_t)prim * BOX_FLOATS, t, tol);
-    const float *v[3];
-    scene_triangle(s, prim, v);
-    return ref_triangle(ray, v[0], v[1], v[2], t, tol);
-}
-
-/* The reference answer of one ray: the bound below which the closest hit must
- * lie (the nearest certain hit's distance plus its tolerance; INFINITY if no
- * certain hit) and whether anything at all may be hit. */
-typedef struct ref_result {
-    double t_bound;
-    int any_possible;
-} ref_result;
-
-static ref_result ref_ray(const scene *s, const aacbvh_ray *ray) {
-    ref_result res = {INFINITY, 0};
-    for (uint32_t i = 0; i < s->prim_count; ++i) {
-        double t, tol;
-        const int c = ref_classify(s, ray, i, &t, &tol);
-        if (c != REF_MISS) res.any_possible = 1;
-        if (c == REF_HIT && t + tol < res.t_bound) res.t_bound = t + tol;
-    }
-    return res;
 }
 
 /* ------------------------------------------------------------------ */
@@ -409,45 +245,10 @@ static aacbvh_bvh *build_scene(const scene *s, aacbvh_builder builder, int64_t m
     return bvh;
 }
 
-/* Checks one closest hit and one any-hit answer against the reference. */
-static void check_ray(const scene *s, const aacbvh_ray *ray, const ref_result *ref, const aacbvh_hit *hit,
-                      uint8_t occluded, size_t ray_index) {
-    if (hit->prim_id == AACBVH_INVALID_ID) {
-        if (isfinite(ref->t_bound))
-            fail_msg("ray %zu: missed, reference hits before t = %.9g", ray_index, ref->t_bound);
-        assert_true(isinf(hit->t) && hit->t > 0);
-        assert_true(hit->u == 0.0f && hit->v == 0.0f);
-    } else {
-        if (hit->prim_id >= s->prim_count) fail_msg("ray %zu: prim_id %u out of range", ray_index, hit->prim_id);
-        double t_ref, tol;
-        const int c = ref_classify(s, ray, hit->prim_id, &t_ref, &tol);
-        if (c == REF_MISS)
-            fail_msg("ray %zu: hit prim %u at t = %.9g, which the reference misses", ray_index,
-                     hit->prim_id, hit->t);
-        if (!(hit->t >= ray->tmin && hit->t <= ray->tmax))
-            fail_msg("ray %zu: t = %.9g outside [%.9g, %.9g]", ray_index, hit->t, ray->tmin, ray->tmax);
-        if (!isnan(t_ref) && fabs(hit->t - t_ref) > tol)
-            fail_msg("ray %zu: prim %u at t = %.9g, reference %.9g", ray_index, hit->prim_id, hit->t, t_ref);
-        if (hit->t > ref->t_bound)
-            fail_msg("ray %zu: hit at t = %.9g, but the reference hits before %.9g", ray_index, hit->t,
-                     ref->t_bound);
-        if (s->is_boxes) {
-            assert_true(hit->u == 0.0f && hit->v == 0.0f);
-        } else if (!isnan(t_ref) && isfinite(tol)) {
-            /* (1 - u - v) v0 + u v1 + v v2 == org + t dir */
-            const float *v[3];
-            scene_triangle(s, hit->prim_id, v);
-            double err = 0.0;
-            for (int k = 0; k < 3; ++k) {
-                const double on_tri = (1.0 - hit->u - hit->v) * v[0][k] + hit->u * v[1][k] + hit->v * v[2][k];
-                const double on_ray = ray->org[k] + (double)hit->t * ray->dir[k];
-                err = fmax(err, fabs(on_tri - on_ray));
-            }
-            if (err > 1e-4 + tol * dir_length(ray)) fail_msg("ray %zu: hit point off by %g", ray_index, err);
-        }
-    }
-    if (isfinite(ref->t_bound) && !occluded) fail_msg("ray %zu: not occluded, reference hits", ray_index);
-    if (!ref->any_possible && occluded) fail_msg("ray %zu: occluded, reference hits nothing", ray_index);
+/* The scene as the reference sees it. */
+static rr_scene reference_scene(const scene *s) {
+    if (s->is_boxes) return rr_boxes(s->data, BOX_FLOATS, s->prim_count);
+    return rr_triangles(s->data, VERTEX_FLOATS, s->indices, s->prim_count);
 }
 
 static const aacbvh_builder k_builders[] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_AAC_FAST};
@@ -456,16 +257,17 @@ static const int64_t k_leaf_sizes[] = {1, 4, 16};
 /* Every builder and leaf size against the reference, over `count` rays. */
 static void run_differential(const scene *s, size_t count, uint64_t seed) {
     aacbvh_ray *rays = make_rays(count, seed);
-    ref_result *refs = malloc(count * sizeof *refs);
+    rr_answer *refs = malloc(count * sizeof *refs);
     aacbvh_hit *hits = malloc(count * sizeof *hits);
     uint8_t *occ = malloc(count);
+    const rr_scene ref_scene = reference_scene(s);
     assert_non_null(refs);
     assert_non_null(hits);
     assert_non_null(occ);
     size_t certain = 0;
     for (size_t i = 0; i < count; ++i) {
-        refs[i] = ref_ray(s, &rays[i]);
-        certain += isfinite(refs[i].t_bound) != 0;
+        refs[i] = rr_reference(&ref_scene, &rays[i]);
+        certain += refs[i].best != (size_t)-1;
     }
     /* The rays must actually hit things for the test to mean anything. */
     assert_true(certain > count / 10);
@@ -474,7 +276,11 @@ static void run_differential(const scene *s, size_t count, uint64_t seed) {
             aacbvh_bvh *bvh = build_scene(s, k_builders[b], k_leaf_sizes[l]);
             assert_int_equal(aacbvh_bvh_intersect(bvh, rays, hits, count), AACBVH_OK);
             assert_int_equal(aacbvh_bvh_occluded(bvh, rays, occ, count), AACBVH_OK);
-            for (size_t i = 0; i < count; ++i) check_ray(s, &rays[i], &refs[i], &hits[i], occ[i], i);
+            for (size_t i = 0; i < count; ++i) {
+                char msg[320];
+                if (!rr_check(&ref_scene, &refs[i], &rays[i], &hits[i], occ[i], msg, sizeof msg, NULL))
+                    fail_msg("builder %d, leaf %d, ray %zu: %s", (int)k_builders[b], (int)k_leaf_sizes[l], i, msg);
+            }
             aacbvh_bvh_destroy(bvh);
         }
     free(occ);

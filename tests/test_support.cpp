@@ -100,6 +100,60 @@ void random_point(ts_rng *rng, float lo, float hi, float p[3]) {
     for (int k = 0; k < 3; ++k) p[k] = ts_rng_range(rng, lo, hi);
 }
 
+/// A random uniform integer in [lo, hi].
+int32_t rng_int(ts_rng *rng, int32_t lo, int32_t hi) { return lo + int32_t(ts_rng_below(rng, uint32_t(hi - lo + 1))); }
+
+/// A triangle of the coplanar scenes in lattice units of 1/256: a centre in
+/// [-200, 200]^2 and corners up to 100 units (about 0.4) from it, with
+/// non-zero area (checked exactly in integers).
+void lattice_triangle(ts_rng *rng, int32_t xy[6]) {
+    for (;;) {
+        const int32_t cx = rng_int(rng, -200, 200), cy = rng_int(rng, -200, 200);
+        for (int j = 0; j < 3; ++j) {
+            xy[2 * j] = cx + rng_int(rng, -100, 100);
+            xy[2 * j + 1] = cy + rng_int(rng, -100, 100);
+        }
+        const int64_t cross = int64_t(xy[2] - xy[0]) * (xy[5] - xy[1]) - int64_t(xy[3] - xy[1]) * (xy[4] - xy[0]);
+        if (cross != 0) return;
+    }
+}
+
+/// Adds a lattice triangle at height z; returns its first vertex.
+uint32_t add_lattice_triangle(MeshBuilder &m, const int32_t xy[6], float z) {
+    uint32_t first = 0;
+    for (int j = 0; j < 3; ++j) {
+        const uint32_t v = m.vertex(float(xy[2 * j]) / 256.0f, float(xy[2 * j + 1]) / 256.0f, z);
+        if (j == 0) first = v;
+    }
+    m.tri(first, first + 1, first + 2);
+    return first;
+}
+
+/// TS_SCENE_COPLANAR_STACK: see test_support.h.
+void coplanar_stack(ts_rng *rng, size_t n, MeshBuilder &m) {
+    static const float planes[4] = {0.0f, -1.0f, -3.0f, -7.0f};
+    int32_t xy[6];
+    float z = 0.0f;
+    uint32_t last = 0; // first vertex of the previous new triangle
+    for (size_t i = 0; i < n; ++i) {
+        const uint32_t kind = i == 0 ? 0 : ts_rng_below(rng, 12);
+        if (kind <= 7) { // a new triangle on a random plane
+            lattice_triangle(rng, xy);
+            z = planes[ts_rng_below(rng, 4)];
+            last = add_lattice_triangle(m, xy, z);
+        } else if (kind == 8) { // the same vertices again
+            m.tri(last, last + 1, last + 2);
+        } else if (kind == 9) { // rotated or reversed
+            if (ts_rng_below(rng, 2)) m.tri(last + 1, last + 2, last);
+            else m.tri(last + 1, last, last + 2);
+        } else if (kind == 10) { // copied vertices, same values
+            add_lattice_triangle(m, xy, z);
+        } else { // the same outline on another plane
+            add_lattice_triangle(m, xy, planes[ts_rng_below(rng, 4)]);
+        }
+    }
+}
+
 } // namespace
 
 const char *ts_scene_name(ts_scene_kind kind) {
@@ -112,6 +166,8 @@ const char *ts_scene_name(ts_scene_kind kind) {
     case TS_SCENE_FLAT: return "flat";
     case TS_SCENE_SLIVERS: return "slivers";
     case TS_SCENE_WIDE_RANGE: return "wide-range";
+    case TS_SCENE_COPLANAR: return "coplanar";
+    case TS_SCENE_COPLANAR_STACK: return "coplanar-stack";
     default: return "unknown";
     }
 }
@@ -244,6 +300,16 @@ int ts_make_scene(ts_scene_kind kind, size_t n, uint64_t seed, ts_mesh *out) {
             m.tri(a, b, d);
         }
         break;
+    case TS_SCENE_COPLANAR:
+        for (size_t i = 0; i < n; ++i) {
+            int32_t xy[6];
+            lattice_triangle(&rng, xy);
+            add_lattice_triangle(m, xy, 0.0f);
+        }
+        break;
+    case TS_SCENE_COPLANAR_STACK:
+        coplanar_stack(&rng, n, m);
+        break;
     default:
         std::memset(out, 0, sizeof *out);
         return 0;
@@ -354,11 +420,7 @@ void ts_tree_free(ts_tree *tree) {
     std::memset(tree, 0, sizeof *tree);
 }
 
-int ts_tree_equal(const ts_tree *a, const ts_tree *b) {
-    return a->node_count == b->node_count && a->prim_count == b->prim_count &&
-           std::memcmp(a->nodes, b->nodes, a->node_count * sizeof(aacbvh_node)) == 0 &&
-           std::memcmp(a->prims, b->prims, a->prim_count * sizeof(uint32_t)) == 0;
-}
+int ts_tree_equal(const ts_tree *a, const ts_tree *b) { return ts_tree_diff(a, b, nullptr, 0); }
 
 namespace {
 
@@ -396,6 +458,28 @@ bool close_rel(double a, double b, double rel) {
 }
 
 } // namespace
+
+int ts_tree_diff(const ts_tree *a, const ts_tree *b, char *msg, size_t msg_size) {
+    Fail bad{msg, msg_size};
+    if (msg && msg_size) msg[0] = '\0';
+    if (a->node_count != b->node_count || a->prim_count != b->prim_count)
+        return bad("%zu nodes and %zu primitives vs %zu nodes and %zu primitives", a->node_count, a->prim_count,
+                   b->node_count, b->prim_count);
+    for (size_t i = 0; i < a->node_count; ++i) {
+        const aacbvh_node &x = a->nodes[i], &y = b->nodes[i];
+        if (std::memcmp(&x, &y, sizeof x) != 0)
+            return bad("node %zu: box (%a %a %a, %a %a %a) first %u count %u vs box (%a %a %a, %a %a %a) first %u "
+                       "count %u",
+                       i, double(x.lower[0]), double(x.lower[1]), double(x.lower[2]), double(x.upper[0]),
+                       double(x.upper[1]), double(x.upper[2]), x.first, x.count, double(y.lower[0]),
+                       double(y.lower[1]), double(y.lower[2]), double(y.upper[0]), double(y.upper[1]),
+                       double(y.upper[2]), y.first, y.count);
+    }
+    for (size_t i = 0; i < a->prim_count; ++i)
+        if (a->prims[i] != b->prims[i])
+            return bad("primitive slot %zu: %u vs %u", i, a->prims[i], b->prims[i]);
+    return 1;
+}
 
 double ts_tree_sah_cost(const ts_tree *tree, double ct, double ci) {
     if (tree->node_count == 0) return 0.0;
@@ -527,6 +611,19 @@ void ts_jitter_coords(float *coords, size_t coord_count, float scale, uint64_t s
     for (size_t i = 0; i < coord_count; ++i) coords[i] += scale * ts_rng_range(&rng, -1.0f, 1.0f);
 }
 
+void ts_set_mesh(aacbvh_bvh *bvh, const ts_mesh *mesh) {
+    const aacbvh_status s = aacbvh_bvh_set_triangles(bvh, mesh->vertices, mesh->vertex_count, 3 * sizeof(float),
+                                                     mesh->indices, mesh->triangle_count);
+    if (s != AACBVH_OK) fail_msg("aacbvh_bvh_set_triangles: %s (%s)", aacbvh_status_string(s), aacbvh_bvh_last_error(bvh));
+}
+
+void ts_jitter_mesh(ts_mesh *mesh, uint64_t seed) {
+    const size_t coords = 3 * mesh->vertex_count;
+    float lo[3], hi[3];
+    ts_coords_bounds(mesh->vertices, coords, lo, hi);
+    ts_jitter_coords(mesh->vertices, coords, 0.05f * (hi[0] - lo[0] + hi[1] - lo[1] + hi[2] - lo[2] + 1e-3f), seed);
+}
+
 uint64_t ts_memory_bytes(const aacbvh_bvh *bvh) {
     aacbvh_stats st;
     std::memset(&st, 0, sizeof st);
@@ -541,4 +638,212 @@ void ts_create(uint32_t threads, aacbvh_context **ctx, aacbvh_bvh **bvh) {
     if (s != AACBVH_OK) fail_msg("aacbvh_context_create: %s", aacbvh_status_string(s));
     s = aacbvh_bvh_create(*ctx, bvh);
     if (s != AACBVH_OK) fail_msg("aacbvh_bvh_create: %s", aacbvh_status_string(s));
+}
+
+// ---- Comparing answers -----------------------------------------------------
+
+namespace {
+
+float signed_zero(ts_rng *rng) { return (ts_rng_next(rng) & 1) ? 0.0f : -0.0f; }
+
+// Makes the ray invalid: a NaN or infinite field, or a zero direction.
+void make_invalid(ts_rng *rng, aacbvh_ray &r) {
+    const int k = int(ts_rng_below(rng, 3));
+    switch (ts_rng_below(rng, 8)) {
+    case 0: r.org[k] = NAN; break;
+    case 1: r.dir[k] = NAN; break;
+    case 2: r.tmin = NAN; break;
+    case 3: r.tmax = NAN; break;
+    case 4: r.org[k] = (ts_rng_next(rng) & 1) ? INFINITY : -INFINITY; break;
+    case 5: r.dir[k] = (ts_rng_next(rng) & 1) ? INFINITY : -INFINITY; break;
+    default:
+        for (int j = 0; j < 3; ++j) r.dir[j] = signed_zero(rng);
+        break;
+    }
+}
+
+// A window [tmin, tmax]; t = 1 is the target.
+void pick_window(ts_rng *rng, aacbvh_ray &r) {
+    const uint32_t kind = ts_rng_below(rng, 100);
+    r.tmin = 0.0f;
+    r.tmax = INFINITY;
+    if (kind < 55) return;
+    if (kind < 70) { // bounded
+        r.tmin = ts_rng_range(rng, 0.0f, 0.8f);
+        r.tmax = ts_rng_range(rng, r.tmin, 1.5f);
+    } else if (kind < 76) {
+        r.tmin = -INFINITY;
+    } else if (kind < 82) { // partly negative
+        r.tmin = ts_rng_range(rng, -1.0f, 0.5f);
+        r.tmax = r.tmin + ts_rng_range(rng, 0.0f, 1.5f);
+    } else if (kind < 86) { // wholly negative: what lies behind the origin
+        r.tmax = ts_rng_range(rng, -1.5f, 0.0f);
+        r.tmin = (ts_rng_next(rng) & 1) ? -INFINITY : r.tmax - ts_rng_range(rng, 0.0f, 1.0f);
+    } else if (kind < 90) { // one point
+        r.tmin = r.tmax = (ts_rng_next(rng) & 1) ? 1.0f : ts_rng_range(rng, -1.0f, 1.5f);
+    } else if (kind < 93) { // empty
+        r.tmin = ts_rng_range(rng, -1.0f, 1.5f);
+        r.tmax = std::nextafter(r.tmin, -INFINITY);
+    }
+}
+
+std::string describe_answer(const ts_answers *a, size_t i) {
+    const aacbvh_hit &h = a->hits[i];
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "t %a u %a v %a prim %u occluded %u", double(h.t), double(h.u), double(h.v),
+                  h.prim_id, unsigned(a->occluded[i]));
+    return buf;
+}
+
+// Why answer i of `a` is malformed, or "" when it is not.
+const char *malformed(const ts_answers *a, size_t i) {
+    const aacbvh_hit &h = a->hits[i];
+    if (a->occluded[i] > 1) return "occluded is neither 0 nor 1";
+    if ((h.prim_id != AACBVH_INVALID_ID) != (a->occluded[i] == 1)) return "occluded disagrees with the closest hit";
+    if (h.prim_id == AACBVH_INVALID_ID && !(h.t == INFINITY && h.u == 0.0f && h.v == 0.0f))
+        return "a miss is not (t, u, v) = (inf, 0, 0)";
+    return "";
+}
+
+} // namespace
+
+aacbvh_ray *ts_make_rays(const float *coords, size_t coord_count, size_t count, uint64_t seed) {
+    auto *rays = static_cast<aacbvh_ray *>(std::malloc(std::max<size_t>(1, count) * sizeof(aacbvh_ray)));
+    if (!rays) return nullptr;
+    float lo[3], hi[3];
+    ts_coords_bounds(coords, coord_count, lo, hi);
+    const uint32_t points = uint32_t(coord_count / 3);
+    ts_rng rng;
+    ts_rng_seed(&rng, seed);
+    for (size_t i = 0; i < count; ++i) {
+        aacbvh_ray &r = rays[i];
+        float target[3];
+        for (int k = 0; k < 3; ++k) {
+            const float ext = hi[k] - lo[k] > 0.0f ? hi[k] - lo[k] : 1.0f;
+            r.org[k] = ts_rng_range(&rng, lo[k] - 0.5f * ext, hi[k] + 0.5f * ext);
+            target[k] = ts_rng_range(&rng, lo[k], hi[k]);
+        }
+        if (points > 0 && (ts_rng_next(&rng) & 1)) { // a vertex or box corner
+            const size_t v = ts_rng_below(&rng, points);
+            for (int k = 0; k < 3; ++k) target[k] = coords[3 * v + k];
+        }
+        if (points > 0 && ts_rng_below(&rng, 8) == 0) { // the origin on one of the scene's planes
+            const int k = int(ts_rng_below(&rng, 3));
+            r.org[k] = coords[3 * size_t(ts_rng_below(&rng, points)) + k];
+        }
+        for (int k = 0; k < 3; ++k) r.dir[k] = target[k] - r.org[k];
+        const uint32_t kind = ts_rng_below(&rng, 100);
+        const int axis = int(ts_rng_below(&rng, 3));
+        if (kind < 25) { // along an axis, level with the target on the others
+            for (int k = 0; k < 3; ++k)
+                if (k != axis) {
+                    r.dir[k] = signed_zero(&rng);
+                    r.org[k] = target[k];
+                }
+        } else if (kind < 40) { // in a coordinate plane through the target
+            r.dir[axis] = signed_zero(&rng);
+            r.org[axis] = target[axis];
+        }
+        if (r.dir[0] == 0.0f && r.dir[1] == 0.0f && r.dir[2] == 0.0f)
+            r.dir[kind < 25 ? axis : (axis + 1) % 3] = (ts_rng_next(&rng) & 1) ? 1.0f : -1.0f;
+        pick_window(&rng, r);
+        if (ts_rng_below(&rng, 20) == 0) make_invalid(&rng, r);
+    }
+    return rays;
+}
+
+void ts_answers_query(const aacbvh_bvh *bvh, const aacbvh_ray *rays, size_t count, ts_answers *out) {
+    static unsigned garbage = 0x5A;
+    garbage = (garbage * 37 + 11) & 0xFF;
+    out->count = count;
+    out->hits = static_cast<aacbvh_hit *>(std::malloc(std::max<size_t>(1, count) * sizeof(aacbvh_hit)));
+    out->occluded = static_cast<uint8_t *>(std::malloc(std::max<size_t>(1, count)));
+    if (!out->hits || !out->occluded) fail_msg("ts_answers_query: out of memory for %zu rays", count);
+    std::memset(out->hits, int(garbage), count * sizeof(aacbvh_hit));
+    std::memset(out->occluded, int(garbage ^ 0xFF), count);
+    aacbvh_status s = aacbvh_bvh_intersect(bvh, rays, out->hits, count);
+    if (s != AACBVH_OK)
+        fail_msg("aacbvh_bvh_intersect: %s (%s)", aacbvh_status_string(s), aacbvh_bvh_last_error(bvh));
+    s = aacbvh_bvh_occluded(bvh, rays, out->occluded, count);
+    if (s != AACBVH_OK)
+        fail_msg("aacbvh_bvh_occluded: %s (%s)", aacbvh_status_string(s), aacbvh_bvh_last_error(bvh));
+}
+
+void ts_answers_free(ts_answers *answers) {
+    std::free(answers->hits);
+    std::free(answers->occluded);
+    std::memset(answers, 0, sizeof *answers);
+}
+
+int ts_answers_equal(const ts_answers *reference, const ts_answers *variant, const aacbvh_ray *rays, char *msg,
+                     size_t msg_size) {
+    Fail bad{msg, msg_size};
+    if (msg && msg_size) msg[0] = '\0';
+    if (reference->count != variant->count)
+        return bad("%zu answers vs %zu", reference->count, variant->count);
+    for (size_t i = 0; i < reference->count; ++i) {
+        const char *why_ref = malformed(reference, i), *why_var = malformed(variant, i);
+        const bool same = std::memcmp(&reference->hits[i], &variant->hits[i], sizeof(aacbvh_hit)) == 0 &&
+                          reference->occluded[i] == variant->occluded[i];
+        if (same && !*why_ref && !*why_var) continue;
+        std::string ray;
+        if (rays) {
+            const aacbvh_ray &r = rays[i];
+            char buf[256];
+            std::snprintf(buf, sizeof buf, " (org %a %a %a, dir %a %a %a, [%a, %a])", double(r.org[0]),
+                          double(r.org[1]), double(r.org[2]), double(r.dir[0]), double(r.dir[1]), double(r.dir[2]),
+                          double(r.tmin), double(r.tmax));
+            ray = buf;
+        }
+        const char *why = *why_ref ? why_ref : *why_var ? why_var : "the answers differ";
+        const char *where = *why_ref ? " in the reference" : *why_var ? " in the variant" : "";
+        return bad("ray %zu%s: %s%s; reference %s, variant %s", i, ray.c_str(), why, where,
+                   describe_answer(reference, i).c_str(), describe_answer(variant, i).c_str());
+    }
+    return 1;
+}
+
+size_t ts_compare_answers(const aacbvh_bvh *reference, const aacbvh_bvh *variant, const aacbvh_ray *rays,
+                          size_t count, const char *what) {
+    ts_answers a, b;
+    char msg[768];
+    ts_answers_query(reference, rays, count, &a);
+    ts_answers_query(variant, rays, count, &b);
+    if (!ts_answers_equal(&a, &b, rays, msg, sizeof msg)) fail_msg("%s: %s", what, msg);
+    size_t hits = 0;
+    for (size_t i = 0; i < count; ++i) hits += a.hits[i].prim_id != AACBVH_INVALID_ID;
+    ts_answers_free(&a);
+    ts_answers_free(&b);
+    return hits;
+}
+
+void ts_compare_batch_orders(const aacbvh_bvh *bvh, const aacbvh_ray *rays, size_t count, uint64_t seed,
+                             const char *what) {
+    std::vector<size_t> order(count);
+    std::vector<aacbvh_ray> moved(std::max<size_t>(1, count));
+    ts_answers first, again, put_back;
+    char msg[768];
+    ts_rng rng;
+    ts_rng_seed(&rng, seed);
+    ts_answers_query(bvh, rays, count, &first);
+    put_back.count = count;
+    put_back.hits = static_cast<aacbvh_hit *>(std::malloc(std::max<size_t>(1, count) * sizeof(aacbvh_hit)));
+    put_back.occluded = static_cast<uint8_t *>(std::malloc(std::max<size_t>(1, count)));
+    if (!put_back.hits || !put_back.occluded) fail_msg("ts_compare_batch_orders: out of memory");
+    for (int pass = 0; pass < 2; ++pass) {
+        for (size_t i = 0; i < count; ++i) order[i] = pass == 0 ? count - 1 - i : i;
+        if (pass == 1) // Fisher-Yates
+            for (size_t i = count; i > 1; --i) std::swap(order[i - 1], order[ts_rng_below(&rng, uint32_t(i))]);
+        for (size_t i = 0; i < count; ++i) moved[i] = rays[order[i]];
+        ts_answers_query(bvh, moved.data(), count, &again);
+        for (size_t i = 0; i < count; ++i) {
+            put_back.hits[order[i]] = again.hits[i];
+            put_back.occluded[order[i]] = again.occluded[i];
+        }
+        ts_answers_free(&again);
+        if (!ts_answers_equal(&first, &put_back, rays, msg, sizeof msg))
+            fail_msg("%s, rays %s: %s", what, pass == 0 ? "reversed" : "shuffled", msg);
+    }
+    ts_answers_free(&first);
+    ts_answers_free(&put_back);
 }

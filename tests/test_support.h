@@ -1,8 +1,11 @@
 /*
  * Helpers shared by the cmocka tests: a deterministic RNG, triangle and box
- * scene generators, an OBJ loader for the optional real meshes, and a checker
- * that walks a built tree through the public API and verifies its invariants.
+ * scene generators, an OBJ loader for the optional real meshes, a checker
+ * that walks a built tree through the public API and verifies its invariants,
+ * and the harness for "this variant answers bit for bit like the reference"
+ * (ts_make_rays, ts_compare_answers, ts_compare_batch_orders).
  * A C interface (implemented in C++ in test_support.cpp); tests stay C99.
+ * The double-precision ray oracle is tests/ray_reference.h.
  */
 #ifndef AACBVH_TEST_SUPPORT_H
 #define AACBVH_TEST_SUPPORT_H
@@ -51,7 +54,16 @@ typedef enum ts_scene_kind {
     TS_SCENE_FLAT = 5,          /**< every vertex on the plane z = 0 */
     TS_SCENE_SLIVERS = 6,       /**< long thin slivers in every direction */
     TS_SCENE_WIDE_RANGE = 7,    /**< magnitudes from 1e-30 to 1e18 (float products stay finite) */
-    TS_SCENE_KIND_COUNT = 8
+    /** Overlapping triangles (each point covered by a dozen or so) in the
+     *  plane z = 0; x and y are multiples of 1/256 in [-1, 1], exact in
+     *  float; no triangle has zero area. */
+    TS_SCENE_COPLANAR = 8,
+    /** Triangles as in TS_SCENE_COPLANAR on the planes z = 0, -1, -3 and -7
+     *  (a ray from z = 1 along -z meets them at t = 1, 2, 4, 8 exactly);
+     *  about a third repeat the triangle before them: the same vertices
+     *  (shared or copied), rotated or reversed, or moved to another plane. */
+    TS_SCENE_COPLANAR_STACK = 9,
+    TS_SCENE_KIND_COUNT = 10
 } ts_scene_kind;
 
 /** A short name of a scene kind, for messages. */
@@ -115,8 +127,74 @@ int ts_check_tree(const aacbvh_bvh *bvh, const float *prim_boxes, size_t prim_to
                   const unsigned char *present, uint32_t max_leaf_size,
                   char *msg, size_t msg_size);
 
+/** 1 when the two trees have the same nodes and primitive indices; else 0
+ *  with the first difference (counts, node or primitive slot) in msg. */
+int ts_tree_diff(const ts_tree *a, const ts_tree *b, char *msg, size_t msg_size);
+
+/* ---- Comparing answers: "this variant answers bit for bit like that" ------ */
+
+/**
+ * `count` rays over a scene whose coordinates are `coords` (coord_count
+ * floats, x y z triples: vertices, or box corners), for comparing two BVHs;
+ * deterministic in the seed. malloc'ed (NULL when out of memory); free() it.
+ * Directions: half aim at one of the scene's points, the rest at a point of
+ * its box; a quarter run along an axis (the other components +0 or -0, the
+ * origin level with the target), some have one zero component (the origin on
+ * the target's coordinate plane). Origins: around the box, one in eight on a
+ * coordinate plane of the scene. Intervals: mostly [0, inf), then bounded,
+ * (-inf, inf), partly and wholly negative, one point (t = 1 at the target
+ * half the time) and empty. One ray in twenty is invalid: a NaN or infinite
+ * field, or a zero direction.
+ */
+aacbvh_ray *ts_make_rays(const float *coords, size_t coord_count, size_t count, uint64_t seed);
+
+/** The answers of one BVH to a batch of rays. */
+typedef struct ts_answers {
+    aacbvh_hit *hits;
+    uint8_t *occluded;
+    size_t count;
+} ts_answers;
+
+/** Runs aacbvh_bvh_intersect and aacbvh_bvh_occluded on the rays, into
+ *  buffers prefilled with garbage that changes from call to call; fails the
+ *  running cmocka test when a call fails. Free with ts_answers_free(). */
+void ts_answers_query(const aacbvh_bvh *bvh, const aacbvh_ray *rays, size_t count, ts_answers *out);
+void ts_answers_free(ts_answers *answers);
+
+/**
+ * 1 when `variant` answers every ray like `reference`, bit for bit: t, u and
+ * v (memcmp), prim_id, and occluded. Each side must also be well formed: a
+ * miss is (t, u, v) = (+inf, 0, 0), occluded is 0 or 1 and says whether the
+ * closest hit found something. Else 0, with the first mismatch in msg (the
+ * ray's index, the ray, both answers; floats in %a, which shows -0). rays may
+ * be NULL (the message then leaves the ray out).
+ */
+int ts_answers_equal(const ts_answers *reference, const ts_answers *variant, const aacbvh_ray *rays, char *msg,
+                     size_t msg_size);
+
+/** Queries both BVHs with the rays and fails the running cmocka test with
+ *  `what` and the first mismatch (see ts_answers_equal). Returns how many
+ *  rays hit something. */
+size_t ts_compare_answers(const aacbvh_bvh *reference, const aacbvh_bvh *variant, const aacbvh_ray *rays,
+                          size_t count, const char *what);
+
+/** Queries one BVH with the rays in their order, in reverse and shuffled
+ *  (deterministic in the seed) and fails the running cmocka test with `what`
+ *  unless each ray gets the same answer, bit for bit, in every order. */
+void ts_compare_batch_orders(const aacbvh_bvh *bvh, const aacbvh_ray *rays, size_t count, uint64_t seed,
+                             const char *what);
+
+/* ---- Small conveniences ------------------------------------------------- */
+
 /** A context and a BVH on it, or fails the running cmocka test. */
 void ts_create(uint32_t threads, aacbvh_context **ctx, aacbvh_bvh **bvh);
+
+/** aacbvh_bvh_set_triangles() of the mesh (stride 12 bytes), or fails the running cmocka test. */
+void ts_set_mesh(aacbvh_bvh *bvh, const ts_mesh *mesh);
+
+/** Moves each vertex coordinate by up to 5% of the sum of the mesh's extents
+ *  (ts_jitter_coords; deterministic in the seed). */
+void ts_jitter_mesh(ts_mesh *mesh, uint64_t seed);
 
 /** Bounds of xyz coordinates (coord_count floats); (-1, 1) on each axis when empty. */
 void ts_coords_bounds(const float *coords, size_t coord_count, float lo[3], float hi[3]);
