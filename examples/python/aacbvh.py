@@ -13,10 +13,11 @@ Without numpy, array.array("f", ...) geometry and a list of aacbvh.Ray work
 the same way; intersect() then returns a ctypes array of Hit.
 
 Install: pip install ./examples/python, in a virtual environment (README.md,
-"From Python", has the command that works offline). The library libaacbvh.so.1 is loaded on first use
-from $AACBVH_LIBRARY if that is set, else from next to this file, else from the
-system's library path (after `cmake --install build` and `ldconfig`); when none
-loads, LibraryLoadError (an OSError) says what was tried and how to fix it.
+"From Python", has the command that works offline). The library
+libaacbvh.so.1 is loaded on first use from $AACBVH_LIBRARY if that is set,
+else from next to this file, else from the system's library path (after
+`cmake --install build` and `ldconfig`); when none loads, LibraryLoadError
+(an OSError) says what was tried and how to fix it.
 
 Arguments are checked before they reach the library: a wrong element type
 raises TypeError and a wrong shape, stride, size or memory layout ValueError,
