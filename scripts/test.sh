@@ -21,9 +21,16 @@ require_tools cmake c++ cc make pkg-config nm readelf
 # those tests report themselves skipped.
 #   abigail-tools (abidiff): abi_baseline, the ABI against tests/abi/libaacbvh.abi
 #   python3: python_binding and python_example, the ctypes binding in examples/python
+#   python3-numpy: python_numpy; python3-venv, python3-setuptools, python3-wheel:
+#   python_install, the binding's offline pip install (Debian packages, asked of dpkg)
 optional=()
 command -v abidiff > /dev/null 2>&1 || optional+=(abigail-tools)
 command -v python3 > /dev/null 2>&1 || optional+=(python3)
+if command -v dpkg > /dev/null 2>&1; then
+    for package in python3-numpy python3-venv python3-setuptools python3-wheel; do
+        dpkg -s "$package" > /dev/null 2>&1 || optional+=("$package")
+    done
+fi
 if [ ${#optional[@]} -gt 0 ]; then
     if [ "$(id -u)" = 0 ] && command -v apt-get > /dev/null 2>&1; then
         log "installing ${optional[*]} for the ABI and Python binding tests"
