@@ -10,8 +10,8 @@
 // system, and the next build takes them back: warm pages, no faults.
 //
 // Only the thread that installed the cache touches it, so it needs no lock.
-// Blocks are plain aligned_alloc() memory: one allocated from the cache may be
-// freed anywhere. The cache never allocates (it is used from deallocation).
+// Blocks are core/memory.h's system blocks (mapped directly, 2 MiB aligned):
+// one allocated from the cache may be freed anywhere. The cache never allocates (it is used from deallocation).
 #pragma once
 
 #include <cstddef>

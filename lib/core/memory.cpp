@@ -1,5 +1,7 @@
 #include "core/memory.h"
 
+#include <sys/mman.h>
+
 namespace aacbvh {
 namespace testing {
 
@@ -15,4 +17,28 @@ bool take_injected_failure() noexcept {
 }
 
 } // namespace testing
+
+void *allocate_system_block(size_t rounded_bytes) {
+    // Map one alignment unit more, then unmap the unaligned head and the tail.
+    const size_t span = rounded_bytes + kHugePageBytes;
+    void *mapped = mmap(nullptr, span, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (mapped == MAP_FAILED) throw std::bad_alloc();
+    const uintptr_t start = reinterpret_cast<uintptr_t>(mapped);
+    const uintptr_t aligned = (start + kHugePageBytes - 1) & ~uintptr_t(kHugePageBytes - 1);
+    if (aligned > start) munmap(mapped, aligned - start);
+    const uintptr_t end = start + span, used_end = aligned + rounded_bytes;
+    if (end > used_end) munmap(reinterpret_cast<void *>(used_end), end - used_end);
+    void *p = reinterpret_cast<void *>(aligned);
+#ifdef MADV_HUGEPAGE
+    madvise(p, rounded_bytes, MADV_HUGEPAGE); // advice only: failure is harmless
+#endif
+    testing::count_system_block(int64_t(rounded_bytes));
+    return p;
+}
+
+void free_system_block(void *p, size_t rounded_bytes) noexcept {
+    testing::count_system_block(-int64_t(rounded_bytes));
+    munmap(p, rounded_bytes);
+}
+
 } // namespace aacbvh

@@ -23,8 +23,6 @@
 #include <utility>
 #include <vector>
 
-#include <sys/mman.h>
-
 #include "core/block_cache.h"
 
 namespace aacbvh {
@@ -101,11 +99,14 @@ constexpr size_t kHugePageBytes = size_t(1) << 21;
 /// alignment in small blocks too; big blocks are 2 MiB aligned anyway.
 inline bool over_aligned(size_t align) { return align > __STDCPP_DEFAULT_NEW_ALIGNMENT__; }
 
-/// Returns a big block to the system.
-inline void free_system_block(void *p, size_t rounded_bytes) noexcept {
-    testing::count_system_block(-int64_t(rounded_bytes));
-    std::free(p);
-}
+/// A big block straight from the system: `rounded_bytes` (a multiple of
+/// 2 MiB) mapped at a 2 MiB boundary, advised for huge pages. Mapped exactly,
+/// so the handle's stats can count every byte of it: aligned_alloc() would
+/// map up to 2 MiB more per block for the alignment, unseen by the stats.
+/// Throws std::bad_alloc.
+void *allocate_system_block(size_t rounded_bytes);
+/// Returns a block of allocate_system_block() to the system.
+void free_system_block(void *p, size_t rounded_bytes) noexcept;
 
 inline void *allocate_build_memory(size_t bytes, size_t align = alignof(std::max_align_t)) {
     testing::check_allocation();
@@ -115,13 +116,7 @@ inline void *allocate_build_memory(size_t bytes, size_t align = alignof(std::max
     const size_t rounded = (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
     if (BlockCache *cache = BlockCache::current())
         if (void *kept = cache->take(rounded)) return kept;
-    void *p = std::aligned_alloc(kHugePageBytes, rounded);
-    if (!p) throw std::bad_alloc();
-    testing::count_system_block(int64_t(rounded));
-#ifdef MADV_HUGEPAGE
-    madvise(p, rounded, MADV_HUGEPAGE); // advice only: failure is harmless
-#endif
-    return p;
+    return allocate_system_block(rounded);
 }
 
 inline void free_build_memory(void *p, size_t bytes, size_t align = alignof(std::max_align_t)) {
