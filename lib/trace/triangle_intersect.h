@@ -9,6 +9,7 @@
 // shared edge or vertex.
 #pragma once
 
+#include <algorithm>
 #include <cfloat>
 #include <cmath>
 
@@ -17,7 +18,8 @@ namespace aacbvh {
 /// Per-ray constants of the watertight test (section 3 of the paper).
 struct TriangleRay {
     float org[3];
-    float dir[3];     ///< for the hit distance (triangle_distance())
+    float dir[3];
+    double org_d[3], dir_d[3]; ///< org and dir in double, for the hit distance (triangle_distance())
     int kx, ky, kz;   ///< kz: dominant axis of dir; kx, ky the other two, swapped to keep winding
     float sx, sy;     ///< shear: dir[kx] / dir[kz], dir[ky] / dir[kz] (at most 1 in magnitude)
 };
@@ -27,6 +29,10 @@ inline TriangleRay make_triangle_ray(const float org[3], const float dir[3]) {
     TriangleRay r;
     r.org[0] = org[0]; r.org[1] = org[1]; r.org[2] = org[2];
     r.dir[0] = dir[0]; r.dir[1] = dir[1]; r.dir[2] = dir[2];
+    for (int k = 0; k < 3; ++k) {
+        r.org_d[k] = org[k];
+        r.dir_d[k] = dir[k];
+    }
     const float ax = std::fabs(dir[0]), ay = std::fabs(dir[1]), az = std::fabs(dir[2]);
     int kz = 0;
     if (ay > ax) kz = 1;
@@ -76,31 +82,49 @@ inline bool has_area(const float *p0, const float *p1, const float *p2) {
 /// visits. Clamped to the box, t is where the node tests expect it. For every
 /// other hit the plane point lies in the box and nothing changes.
 /// Returns false when no finite distance comes out.
+/// The rare tail of triangle_distance(): the plane point lies outside the
+/// triangle's box (or there is no plane point), so t becomes the nearest
+/// distance at which the ray is inside the box.
+[[gnu::noinline, gnu::cold]] inline bool clamp_to_triangle_box(const TriangleRay &r, const float *p0,
+                                                                const float *p1, const float *p2, double plane,
+                                                                double &t) {
+    double enter = -INFINITY, leave = INFINITY;
+    for (int k = 0; k < 3; ++k) {
+        if (r.dir[k] == 0.0f) continue;
+        const double lo = double(std::min(std::min(p0[k], p1[k]), p2[k])) - double(r.org[k]);
+        const double hi = double(std::max(std::max(p0[k], p1[k]), p2[k])) - double(r.org[k]);
+        const double a = lo / double(r.dir[k]), b = hi / double(r.dir[k]);
+        enter = std::max(enter, std::min(a, b));
+        leave = std::min(leave, std::max(a, b));
+    }
+    // A plane the ray runs along in double (a nearly collinear triangle the
+    // edge functions still found): where the ray enters the box.
+    t = std::isfinite(plane) ? std::max(std::min(plane, leave), enter) : enter;
+    return std::isfinite(t);
+}
+
 inline bool triangle_distance(const TriangleRay &r, const float *p0, const float *p1, const float *p2, double &t) {
     double e1[3], e2[3], w[3];
     for (int k = 0; k < 3; ++k) {
         e1[k] = double(p1[k]) - double(p0[k]);
         e2[k] = double(p2[k]) - double(p0[k]);
-        w[k] = double(p0[k]) - double(r.org[k]);
+        w[k] = double(p0[k]) - r.org_d[k];
     }
     const double n0 = e1[1] * e2[2] - e1[2] * e2[1];
     const double n1 = e1[2] * e2[0] - e1[0] * e2[2];
     const double n2 = e1[0] * e2[1] - e1[1] * e2[0];
-    const double den = double(r.dir[0]) * n0 + double(r.dir[1]) * n1 + double(r.dir[2]) * n2;
-    const double plane = (w[0] * n0 + w[1] * n1 + w[2] * n2) / den;
-    double enter = -INFINITY, leave = INFINITY;
+    const double den = r.dir_d[0] * n0 + r.dir_d[1] * n1 + r.dir_d[2] * n2;
+    t = (w[0] * n0 + w[1] * n1 + w[2] * n2) / den;
+    // The plane point, relative to p0, inside the box of the three vertices
+    // (the common case): t stands. Comparisons are false for NaN.
+    bool inside = true;
     for (int k = 0; k < 3; ++k) {
-        if (r.dir[k] == 0.0f) continue;
-        const double lo = std::fmin(std::fmin(p0[k], p1[k]), p2[k]) - double(r.org[k]);
-        const double hi = std::fmax(std::fmax(p0[k], p1[k]), p2[k]) - double(r.org[k]);
-        const double a = lo / double(r.dir[k]), b = hi / double(r.dir[k]);
-        enter = std::fmax(enter, std::fmin(a, b));
-        leave = std::fmin(leave, std::fmax(a, b));
+        const double x = t * r.dir_d[k] - w[k];
+        const double lo = std::min(0.0, std::min(e1[k], e2[k])), hi = std::max(0.0, std::max(e1[k], e2[k]));
+        inside = inside && x >= lo && x <= hi;
     }
-    // A plane the ray runs along in double (a nearly collinear triangle the
-    // edge functions still found): where the ray enters the box.
-    t = std::isfinite(plane) ? std::fmax(std::fmin(plane, leave), enter) : enter;
-    return std::isfinite(t);
+    if (inside) return true;
+    return clamp_to_triangle_box(r, p0, p1, p2, t, t);
 }
 
 /// triangle_distance() rounded to the float that is reported, and whether
