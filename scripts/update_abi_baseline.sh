@@ -9,7 +9,7 @@ source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
 require_tools cmake c++ make abidw abidiff
 log "configure and build the ABI probe in $AACBVH_BUILD_DIR"
-configure "$AACBVH_BUILD_DIR" -DCMAKE_BUILD_TYPE=Release
+configure "$AACBVH_BUILD_DIR" -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTING=ON
 cmake --build "$AACBVH_BUILD_DIR" -j "$AACBVH_JOBS" --target aacbvh_abi_probe
 probe=$(find "$AACBVH_BUILD_DIR/tests/abi" -maxdepth 1 -name 'libaacbvh.so.*.*' | head -n 1)
 [ -n "$probe" ] || { echo "no probe library under $AACBVH_BUILD_DIR/tests/abi" >&2; exit 1; }

@@ -28,7 +28,7 @@ relocated)
 absolute)
     step "configure and build a library-only tree with CMAKE_INSTALL_LIBDIR=$prefix/abslib"
     "$cmake" -S "$src" -B "$work/build" -DCMAKE_BUILD_TYPE=Release \
-        -DAACBVH_BUILD_TESTS=OFF -DAACBVH_BUILD_EXAMPLES=OFF \
+        -DBUILD_TESTING=OFF -DAACBVH_BUILD_EXAMPLES=OFF \
         -DCMAKE_C_COMPILER="$cc" \
         -DCMAKE_INSTALL_PREFIX="$prefix" -DCMAKE_INSTALL_LIBDIR="$prefix/abslib" \
         -DCMAKE_INSTALL_INCLUDEDIR=include > "$work/configure.log" ||
