@@ -1,5 +1,5 @@
 // Unit tests of the SIMD kernels under AAC's greedy combine
-// (lib/distance_row.h) against plain loops: argmin_row on rows full of ties,
+// (lib/build/aac/distance_row.h) against plain loops: argmin_row on rows full of ties,
 // infinities and FLT_MAX at every length from 1 to 70, distance_row against
 // a double-precision union area, and the fused distance_row_argmin against
 // the two kernels it replaces.

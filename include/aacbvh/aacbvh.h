@@ -343,9 +343,12 @@ typedef struct aacbvh_stats {
  * Fills *out. The caller sets out->struct_size = sizeof(aacbvh_stats) first;
  * an older, smaller struct gets the fields that fit. Returns AACBVH_OK,
  * AACBVH_ERROR_INVALID_ARGUMENT (NULL, or struct_size too small) or
- * AACBVH_ERROR_INVALID_OPERATION (no valid tree). It walks the tree on the
- * calling thread (time linear in the node count) to measure the SAH cost with
- * the costs in force and the depth.
+ * AACBVH_ERROR_INVALID_OPERATION (no valid tree). Constant time, except
+ * the first call after a build, which measures the tree once (depth, leaf
+ * count and SAH area sums: time linear in the node count, on the context's
+ * threads). The figures are kept with the handle, and refit keeps the area
+ * sums current, so calling it every frame of a refit loop costs nothing more;
+ * sah_cost is computed from the sums with the costs in force at the call.
  */
 AACBVH_API aacbvh_status aacbvh_bvh_get_stats(const aacbvh_bvh *bvh, aacbvh_stats *out);
 
