@@ -78,7 +78,7 @@ grep -Eq "^quad +3 +aac-fast " "$work/demo.log" ||
 
 step "cmake --install $build"
 "$cmake" --install "$build" > "$work/install.log" 2>&1 || { cat "$work/install.log"; fail "install"; }
-for f in include/aacbvh/aacbvh.h; do
+for f in include/aacbvh/aacbvh.h share/doc/aacbvh/LICENSE share/doc/aacbvh/CHANGELOG.md; do
     [ -f "$prefix/$f" ] || fail "$f not installed"
 done
 for pattern in 'libaacbvh.so.[0-9]*' aacbvh.pc aacbvhConfig.cmake aacbvhConfigVersion.cmake; do

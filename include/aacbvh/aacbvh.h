@@ -370,7 +370,8 @@ typedef struct aacbvh_node {
 AACBVH_API aacbvh_status aacbvh_bvh_get_nodes(const aacbvh_bvh *bvh, size_t first, size_t count,
                                               aacbvh_node *out);
 /** Copies entries [first, first + count) of the primitive index array (length
- *  = primitive_count) into out. Same returns as aacbvh_bvh_get_nodes(). */
+ *  = primitive_count) into out: primitive indices in the caller's order, as
+ *  aacbvh_hit.prim_id. Same returns as aacbvh_bvh_get_nodes(). */
 AACBVH_API aacbvh_status aacbvh_bvh_get_primitive_indices(const aacbvh_bvh *bvh, size_t first,
                                                           size_t count, uint32_t *out);
 
@@ -393,7 +394,10 @@ typedef struct aacbvh_ray {
 } aacbvh_ray;
 
 /**
- * A hit, 16 bytes. prim_id is AACBVH_INVALID_ID on a miss (t, u, v are then
+ * A hit, 16 bytes. prim_id is the index of the triangle or box hit in the
+ * caller's order (triangle i of aacbvh_bvh_set_triangles(), box i of
+ * aacbvh_bvh_set_boxes()), also when AACBVH_PARAM_SKIP_INVALID_PRIMITIVES
+ * left primitives out; AACBVH_INVALID_ID on a miss (t, u, v are then
  * INFINITY, 0, 0). The hit point is (1 - u - v) * v0 + u * v1 + v * v2. For
  * boxes, t is the distance at which the ray enters the box (clamped to tmin)
  * and u = v = 0. A hit's t is always finite: a box entered before -FLT_MAX
