@@ -17,7 +17,10 @@ require_tools cmake c++ make abidw abidiff
 header=$AACBVH_ROOT/include/aacbvh/aacbvh.h
 major=$(sed -n 's/^#define AACBVH_VERSION_MAJOR \([0-9][0-9]*\)$/\1/p' "$header")
 minor=$(sed -n 's/^#define AACBVH_VERSION_MINOR \([0-9][0-9]*\)$/\1/p' "$header")
-[ -n "$major" ] && [ -n "$minor" ] || { echo "no version macros in $header" >&2; exit 1; }
+if [ -z "$major" ] || [ -z "$minor" ]; then
+    echo "no version macros in $header" >&2
+    exit 1
+fi
 abi_dir=$AACBVH_ROOT/tests/abi
 target=$abi_dir/libaacbvh-$major.$minor.abi
 if [ -e "$target" ]; then
