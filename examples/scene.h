@@ -30,7 +30,7 @@ typedef struct scene_procedural_config {
     uint64_t seed;          /* the same seed always gives the same scene */
 } scene_procedural_config;
 
-/* The default knobs: about 200 K triangles. */
+/* The default knobs: 237,056 triangles (a terrain of 2 * 256^2 and 48 spheres of 4 * 24 * 23). */
 scene_procedural_config scene_procedural_defaults(void);
 
 /* Loads the triangles of an OBJ file into `out` (see load_obj below). Returns

@@ -4,6 +4,9 @@
 # over the committed corpus tests/fuzz/corpus/. New inputs it finds go to a
 # scratch directory (merge good ones into the corpus by hand with -merge=1);
 # a crash leaves its input in the build directory and fails the script.
+# The fuzzer's own output (thousands of lines) goes to <build>-fuzz/fuzz.log;
+# the script prints one summary line (runs, coverage, time, result), and the
+# log's last lines only when the run fails.
 # Environment knobs (besides those of common.sh):
 #   AACBVH_FUZZ_SECONDS    run time (default 60)
 #   AACBVH_FUZZ_BUILD_DIR  build directory (default <build>-fuzz)
@@ -35,8 +38,39 @@ log "fuzz: configure and build in $dir"
 cmake -S "$AACBVH_ROOT/tests/fuzz" -B "$dir" -DAACBVH_BUILD_FUZZER=ON -DCMAKE_CXX_COMPILER="$cxx"
 cmake --build "$dir" -j "$AACBVH_JOBS"
 
-log "fuzz: $seconds s over $(find "$corpus" -type f | wc -l) corpus inputs"
+inputs=$(find "$corpus" -type f | wc -l)
+log "fuzz: $seconds s over $inputs corpus inputs"
 mkdir -p "$scratch/new"
+fuzz_log=$dir/fuzz.log
+touch "$scratch/started"
+start=$(date +%s)
+set +e
 # shellcheck disable=SC2086  # extra libFuzzer flags are a word list
 "$dir/aacbvh-fuzz-api" -max_total_time="$seconds" -max_len=4096 -timeout=10 -rss_limit_mb=2048 \
-    -print_final_stats=1 -artifact_prefix="$dir/" ${AACBVH_FUZZ_FLAGS:-} "$scratch/new" "$corpus"
+    -print_final_stats=1 -artifact_prefix="$dir/" ${AACBVH_FUZZ_FLAGS:-} "$scratch/new" "$corpus" \
+    > "$fuzz_log" 2>&1
+rc=$?
+set -e
+elapsed=$(($(date +%s) - start))
+
+# From libFuzzer's output: executions (its final stats, else the last status
+# line "#N ..."), and coverage from the last status line ("cov: edges ft:
+# features corp: inputs/size").
+runs=$(sed -n 's/^stat::number_\(of_\)\{0,1\}executed_units: *\([0-9][0-9]*\).*/\2/p' "$fuzz_log" | tail -n 1)
+status_line=$(grep -E '^#[0-9]+[[:space:]].* cov: ' "$fuzz_log" | tail -n 1 || true)
+[ -n "$runs" ] || runs=$(printf '%s\n' "$status_line" | sed -n 's/^#\([0-9][0-9]*\).*/\1/p')
+field() { printf '%s\n' "$status_line" | sed -n "s/.* $1: \\([^ ]*\\).*/\\1/p"; }
+cov=$(field cov) ft=$(field ft) corp=$(field corp)
+new_inputs=$(find "$scratch/new" -type f | wc -l)
+summary="${runs:-?} runs in $elapsed s, coverage ${cov:-?} edges / ${ft:-?} features, corpus ${corp:-?} ($new_inputs new inputs)"
+if [ "$rc" -eq 0 ]; then
+    echo "fuzz: ok: $summary; log: $fuzz_log"
+else
+    echo "fuzz: FAILED (exit $rc): $summary; log: $fuzz_log"
+    echo "--- last 60 lines of $fuzz_log:"
+    tail -n 60 "$fuzz_log"
+    find "$dir" -maxdepth 1 -type f -newer "$scratch/started" \
+        \( -name 'crash-*' -o -name 'leak-*' -o -name 'timeout-*' -o -name 'oom-*' \) |
+        sed 's/^/input that failed: /'
+    exit 1
+fi

@@ -9,6 +9,8 @@
 #        prefix other than the configured one and the default, relative libdir.
 #   MODE absolute:  a second library-only build configured with an absolute
 #        CMAKE_INSTALL_LIBDIR (and a relative includedir), installed as configured.
+# find_package accepts this version for the project's default request (1.0)
+# and refuses another major version and a later minor one.
 set -eu
 
 mode=$1 src=$2 bin=$3 cmake=$4 cc=$5
@@ -28,7 +30,7 @@ relocated)
 absolute)
     step "configure and build a library-only tree with CMAKE_INSTALL_LIBDIR=$prefix/abslib"
     "$cmake" -S "$src" -B "$work/build" -DCMAKE_BUILD_TYPE=Release \
-        -DAACBVH_BUILD_TESTS=OFF -DAACBVH_BUILD_EXAMPLES=OFF \
+        -DBUILD_TESTING=OFF -DAACBVH_BUILD_EXAMPLES=OFF \
         -DCMAKE_C_COMPILER="$cc" \
         -DCMAKE_INSTALL_PREFIX="$prefix" -DCMAKE_INSTALL_LIBDIR="$prefix/abslib" \
         -DCMAKE_INSTALL_INCLUDEDIR=include > "$work/configure.log" ||
@@ -94,4 +96,16 @@ if "$cmake" -S "$src/tests/find_package_project" -B "$work/consumer-wrong" \
     fail "find_package(aacbvh 99.0) accepted version $version"
 fi
 rm -rf "$work/consumer-wrong"
+# ... and so must asking for a later minor version: it may use what this one lacks.
+major=${version%%.*}
+minor=${version#*.}
+minor=${minor%%.*}
+later="$major.$((minor + 1))"
+step "find_package(aacbvh $later) must fail"
+if "$cmake" -S "$src/tests/find_package_project" -B "$work/consumer-later" \
+    "$find_args" -DCMAKE_C_COMPILER="$cc" -DAACBVH_WANTED_VERSION="$later" \
+    > "$work/consumer-later.log" 2>&1; then
+    fail "find_package(aacbvh $later) accepted version $version"
+fi
+rm -rf "$work/consumer-later"
 echo "ok: install ($mode) works with pkg-config and find_package, version $version"

@@ -1,4 +1,4 @@
-// Unit tests of the kept build memory (lib/block_cache.h) and of its use by a
+// Unit tests of the kept build memory (lib/core/block_cache.h) and of its use by a
 // BVH handle (lib/bvh_object.h, AACBVH_PARAM_KEEP_BUILD_MEMORY): which block a
 // request gets, what a build keeps and frees, and that the setting's memory
 // goes away when it is switched off; and that the 4-wide tree is counted as

@@ -1,6 +1,6 @@
 // The node box test is at least as conservative as the triangle test: when
-// intersect_triangle() (lib/triangle_intersect.h) hits a triangle at t, the
-// box test (lib/ray_box.h) of the triangle's bounding box must pass it with
+// intersect_triangle() (lib/trace/triangle_intersect.h) hits a triangle at t, the
+// box test (lib/trace/ray_box.h) of the triangle's bounding box must pass it with
 // the window [tmin, tmax] and with [tmin, t] (traversal shrinks tmax to the
 // best hit), and report an entry distance <= t. Both within 1e-5 (|t| + L / |dir|): the
 // triangle's own t is off by ulps (more for slivers), and the tolerance

@@ -487,6 +487,73 @@ static void test_skip_invalid(void **state) {
     ts_mesh_free(&mesh);
 }
 
+/* prim_id (and the primitive index array) name primitives by their index in
+ * the caller's arrays, also when invalid ones before them were left out. */
+static void test_skip_invalid_keeps_caller_ids(void **state) {
+    aacbvh_bvh *bvh = (aacbvh_bvh *)*state;
+    /* Four triangles side by side, centred at x = 0, 3, 6, 9 (z = 0);
+     * triangle 0 has a NaN vertex and triangle 2 an index past the end. */
+    float vertices[12 * 3];
+    uint32_t indices[12];
+    /* Four boxes at the same places; box 1 has min > max on y. */
+    float boxes[4 * 6];
+    int b, kind;
+    size_t t;
+    for (t = 0; t < 4; ++t) {
+        const float x = 3.0f * (float)t;
+        const float corner[3][3] = {{x - 1.0f, -1.0f, 0.0f}, {x + 1.0f, -1.0f, 0.0f}, {x, 1.0f, 0.0f}};
+        size_t c, a;
+        for (c = 0; c < 3; ++c) {
+            for (a = 0; a < 3; ++a) vertices[3 * (3 * t + c) + a] = corner[c][a];
+            indices[3 * t + c] = (uint32_t)(3 * t + c);
+        }
+        boxes[6 * t + 0] = x - 1.0f; boxes[6 * t + 1] = -1.0f; boxes[6 * t + 2] = -0.5f;
+        boxes[6 * t + 3] = x + 1.0f; boxes[6 * t + 4] = 1.0f;  boxes[6 * t + 5] = 0.5f;
+    }
+    vertices[3 * 1 + 2] = NAN;   /* triangle 0 */
+    indices[3 * 2 + 1] = 1000;   /* triangle 2 */
+    boxes[6 * 1 + 4] = -2.0f;    /* box 1: max y < min y */
+
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_SKIP_INVALID_PRIMITIVES, 1), AACBVH_OK);
+    for (kind = 0; kind < 2; ++kind) {
+        /* The valid ones: triangles 1 and 3, boxes 0, 2 and 3. */
+        const int valid_triangle[4] = {0, 1, 0, 1}, valid_box[4] = {1, 0, 1, 1};
+        const int *valid = kind == 0 ? valid_triangle : valid_box;
+        if (kind == 0)
+            TS_EXPECT_STATUS(aacbvh_bvh_set_triangles(bvh, vertices, 12, 12, indices, 4), AACBVH_OK);
+        else
+            TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(bvh, boxes, 4, 24), AACBVH_OK);
+        for (b = AACBVH_BUILDER_AAC_HQ; b <= AACBVH_BUILDER_PLOC; ++b) {
+            uint32_t prims[4];
+            size_t count = 0, i;
+            aacbvh_stats stats;
+            TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, b), AACBVH_OK);
+            TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+            memset(&stats, 0, sizeof stats);
+            stats.struct_size = sizeof stats;
+            TS_EXPECT_STATUS(aacbvh_bvh_get_stats(bvh, &stats), AACBVH_OK);
+            for (t = 0; t < 4; ++t) count += (size_t)valid[t];
+            assert_int_equal(stats.primitive_count, count);
+            TS_EXPECT_STATUS(aacbvh_bvh_get_primitive_indices(bvh, 0, count, prims), AACBVH_OK);
+            for (i = 0; i < count; ++i) {
+                if (prims[i] >= 4 || !valid[prims[i]])
+                    fail_msg("%s, builder %d: primitive index %u", kind ? "boxes" : "triangles", b, prims[i]);
+            }
+            for (t = 0; t < 4; ++t) {
+                aacbvh_ray ray = ray_down(3.0f * (float)t, -0.5f);
+                aacbvh_hit hit;
+                TS_EXPECT_STATUS(aacbvh_bvh_intersect(bvh, &ray, &hit, 1), AACBVH_OK);
+                if (valid[t] && hit.prim_id != t)
+                    fail_msg("%s, builder %d: the ray at primitive %zu hit %u", kind ? "boxes" : "triangles",
+                             b, t, hit.prim_id);
+                if (!valid[t] && hit.prim_id != AACBVH_INVALID_ID)
+                    fail_msg("%s, builder %d: the ray at skipped primitive %zu hit %u",
+                             kind ? "boxes" : "triangles", b, t, hit.prim_id);
+            }
+        }
+    }
+}
+
 static bool cancel_after(void *user, double fraction) {
     int *calls = (int *)user;
     if (!(fraction >= 0.0 && fraction <= 1.0)) *calls = -1000000;
@@ -529,6 +596,7 @@ int main(void) {
         cmocka_unit_test_setup_teardown(test_invalid_geometry, setup_bvh, teardown_bvh),
         cmocka_unit_test_setup_teardown(test_failed_build_keeps_tree, setup_bvh, teardown_bvh),
         cmocka_unit_test_setup_teardown(test_skip_invalid, setup_bvh, teardown_bvh),
+        cmocka_unit_test_setup_teardown(test_skip_invalid_keeps_caller_ids, setup_bvh, teardown_bvh),
         cmocka_unit_test_setup_teardown(test_cancel_keeps_tree, setup_bvh, teardown_bvh),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -4,7 +4,7 @@
 // build), and a BVH whose rebuild failed keeps its previous tree, answering
 // rays, stats and node reads exactly as before.
 //
-// Failures come from aacbvh::testing::alloc_fail_countdown (lib/memory.h):
+// Failures come from aacbvh::testing::alloc_fail_countdown (lib/core/memory.h):
 // the build arrays consult it, and this program replaces the global operator
 // new (every overload) to consult it too, so std containers, strings and
 // objects fail as well. That reaches the library only because it is linked

@@ -1,5 +1,5 @@
-// Unit tests of the reference builders (lib/sah_builders.cpp,
-// lib/locally_ordered_builder.cpp, lib/ploc_builder.cpp): every builder gives a
+// Unit tests of the reference builders (lib/build/reference/: sweep and binned
+// SAH, locally-ordered, PLOC): every builder gives a
 // valid full binary tree on random, clustered and degenerate inputs; the
 // locally-ordered builder matches naive greedy clustering; the sweep SAH's top
 // split is the best axis-aligned split found by brute force; results do not

@@ -1,4 +1,4 @@
-// Unit tests of the work-stealing scheduler (lib/scheduler.h): fork/join,
+// Unit tests of the work-stealing scheduler (lib/core/scheduler.h): fork/join,
 // parallel_for, parallel_reduce, concurrent callers, exceptions, lifetimes.
 #include <stdarg.h>
 #include <stddef.h>

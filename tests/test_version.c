@@ -1,4 +1,4 @@
-/* Version macros against the run-time queries; status names. */
+/* Version macros against the run-time queries and CMake; status names. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -26,6 +26,19 @@ static void test_version_macros_match_runtime(void **state) {
     assert_int_equal(major * 10000 + minor * 100 + patch, aacbvh_version_number());
     /* Static storage: the same pointer every time. */
     assert_ptr_equal(aacbvh_version_string(), aacbvh_version_string());
+}
+
+/* CMake's project version (the library's VERSION and SOVERSION) is read from
+ * the header's macros: the two must agree. 1.x: the SONAME libaacbvh.so.1
+ * stays for every minor version (docs/ABI.md). */
+static void test_version_matches_cmake(void **state) {
+    (void)state;
+    assert_string_equal(AACBVH_PROJECT_VERSION, AACBVH_VERSION_STRING);
+    assert_string_equal(AACBVH_PROJECT_VERSION, aacbvh_version_string());
+    assert_int_equal(AACBVH_VERSION_MAJOR, 1);
+    /* 1.1 is the first version with AACBVH_PARAM_TRIANGLE_STORAGE and
+     * AACBVH_PARAM_KEEP_BUILD_MEMORY (CHANGELOG.md). */
+    assert_true(AACBVH_VERSION_NUMBER >= 10100);
 }
 
 static void test_status_strings(void **state) {
@@ -57,6 +70,7 @@ static void test_status_strings(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_version_macros_match_runtime),
+        cmocka_unit_test(test_version_matches_cmake),
         cmocka_unit_test(test_status_strings),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

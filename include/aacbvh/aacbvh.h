@@ -54,7 +54,7 @@ extern "C" {
 /* ===================================================================== */
 
 #define AACBVH_VERSION_MAJOR 1
-#define AACBVH_VERSION_MINOR 0
+#define AACBVH_VERSION_MINOR 1
 #define AACBVH_VERSION_PATCH 0
 #define AACBVH_VERSION_NUMBER \
     (AACBVH_VERSION_MAJOR * 10000 + AACBVH_VERSION_MINOR * 100 + AACBVH_VERSION_PATCH)
@@ -383,9 +383,12 @@ typedef struct aacbvh_stats {
  * Fills *out. The caller sets out->struct_size = sizeof(aacbvh_stats) first;
  * an older, smaller struct gets the fields that fit. Returns AACBVH_OK,
  * AACBVH_ERROR_INVALID_ARGUMENT (NULL, or struct_size too small) or
- * AACBVH_ERROR_INVALID_OPERATION (no valid tree). It walks the tree on the
- * calling thread (time linear in the node count) to measure the SAH cost with
- * the costs in force and the depth.
+ * AACBVH_ERROR_INVALID_OPERATION (no valid tree). Constant time, except
+ * the first call after a build, which measures the tree once (depth, leaf
+ * count and SAH area sums: time linear in the node count, on the context's
+ * threads). The figures are kept with the handle, and refit keeps the area
+ * sums current, so calling it every frame of a refit loop costs nothing more;
+ * sah_cost is computed from the sums with the costs in force at the call.
  */
 AACBVH_API aacbvh_status aacbvh_bvh_get_stats(const aacbvh_bvh *bvh, aacbvh_stats *out);
 
@@ -407,7 +410,8 @@ typedef struct aacbvh_node {
 AACBVH_API aacbvh_status aacbvh_bvh_get_nodes(const aacbvh_bvh *bvh, size_t first, size_t count,
                                               aacbvh_node *out);
 /** Copies entries [first, first + count) of the primitive index array (length
- *  = primitive_count) into out. Same returns as aacbvh_bvh_get_nodes(). */
+ *  = primitive_count) into out: primitive indices in the caller's order, as
+ *  aacbvh_hit.prim_id. Same returns as aacbvh_bvh_get_nodes(). */
 AACBVH_API aacbvh_status aacbvh_bvh_get_primitive_indices(const aacbvh_bvh *bvh, size_t first,
                                                           size_t count, uint32_t *out);
 
@@ -430,7 +434,10 @@ typedef struct aacbvh_ray {
 } aacbvh_ray;
 
 /**
- * A hit, 16 bytes. prim_id is AACBVH_INVALID_ID on a miss (t, u, v are then
+ * A hit, 16 bytes. prim_id is the index of the triangle or box hit in the
+ * caller's order (triangle i of aacbvh_bvh_set_triangles(), box i of
+ * aacbvh_bvh_set_boxes()), also when AACBVH_PARAM_SKIP_INVALID_PRIMITIVES
+ * left primitives out; AACBVH_INVALID_ID on a miss (t, u, v are then
  * INFINITY, 0, 0). The hit point is (1 - u - v) * v0 + u * v1 + v * v2. For
  * boxes, t is the distance at which the ray enters the box (clamped to tmin)
  * and u = v = 0. A hit's t is always finite: a box entered before -FLT_MAX

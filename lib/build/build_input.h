@@ -1,5 +1,5 @@
 // The primitives a builder sees: one box per valid primitive, after the
-// geometry was checked (primitive_bounds.h).
+// geometry was checked (build/build_input.cpp).
 #pragma once
 
 #include <cstdint>

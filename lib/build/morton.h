@@ -27,8 +27,8 @@ inline uint64_t spread_bits_21(uint64_t x) {
 /// cubes (one scale, from the largest extent), so the radix-tree splits of an
 /// elongated scene stay balanced in world space; per-axis scales would split
 /// a long, flat room as often across its height as along its length. This
-/// gave slightly cheaper trees on most scenes (sponza -1 %, stk_temple -1 to
-/// -2 %, see docs/PERFORMANCE.md). Computed in double so that bounds spanning
+/// gave slightly cheaper trees on most scenes (figures: docs/PERFORMANCE.md,
+/// "Tree quality: cubic Morton cells"). Computed in double so that bounds spanning
 /// most of the float range do not overflow.
 class MortonQuantizer {
 public:

@@ -1,7 +1,8 @@
 // The 4-wide traversal layout (AACBVH_LAYOUT_WIDE4): a tree collapsed from the
 // finished binary Bvh, whose nodes hold their four children's boxes as a
-// structure of arrays so that one ray is tested against all four at once
-// (SSE on x86-64, a scalar loop elsewhere). Leaves stay the binary leaves:
+// structure of arrays so that its traversal (trace/wide_traversal.h) tests one
+// ray against all four at once (SSE on x86-64, a scalar loop elsewhere). This
+// file makes the tree and refits it. Leaves stay the binary leaves:
 // they point into the same primitive index array, and triangles are read
 // from the caller's buffers or from the BVH's copy (AACBVH_TRIANGLES_COPIED).
 //
@@ -63,7 +64,7 @@ public:
     }
 
 private:
-    /// Build arrays (lib/memory.h): counted in the build's peak, huge pages,
+    /// Build arrays (core/memory.h): counted in the build's peak, huge pages,
     /// reused with AACBVH_PARAM_KEEP_BUILD_MEMORY.
     Array<WideNode> nodes_;
     /// For refit: the binary node behind each child slot (4 per wide node,

@@ -1,10 +1,10 @@
 // Large blocks a BVH handle keeps from one build to the next
 // (AACBVH_PARAM_KEEP_BUILD_MEMORY), for applications that rebuild every frame.
 //
-// A fresh build touches about 110 bytes of new memory per primitive, and the
-// kernel clears every page of it on first touch: a fifth of a one-thread
-// AAC-Fast build on the test machine, and a cost that grows with threads (the
-// faults contend in the kernel). With a cache installed on the building thread
+// A fresh build touches all of its peak memory (build_peak_bytes) new, and the
+// kernel clears every page of it on first touch: a sizeable part of a build,
+// and a cost that grows with threads (the faults contend in the kernel;
+// figures in docs/PERFORMANCE.md). With a cache installed on the building thread
 // (BlockCache::Scope), blocks of 2 MiB and more that the build frees (its
 // scratch arrays, the tree it replaces) are kept instead of returned to the
 // system, and the next build takes them back: warm pages, no faults.

@@ -7,7 +7,7 @@
 // aligned and marked for transparent huge pages (one fault per 2 MiB instead
 // of per 4 KiB), as Embree does for its build memory.
 //
-// With a BlockCache installed on the thread (lib/block_cache.h), big blocks
+// With a BlockCache installed on the thread (core/block_cache.h), big blocks
 // are taken from it and given back to it instead of the system.
 //
 // Tests inject allocation failures through testing::alloc_fail_countdown

@@ -1,9 +1,14 @@
 #!/bin/sh
-# Compares the C ABI of libaacbvh with the committed baseline, using
-# libabigail (Debian package abigail-tools), or writes that baseline.
+# Compares the C ABI of libaacbvh with the committed baselines, using
+# libabigail (Debian package abigail-tools), or writes a baseline.
 #
 # usage: check_abi.sh dump  LIBRARY HEADERS_DIR OUT.abi
-#        check_abi.sh check LIBRARY HEADERS_DIR BASELINE.abi SUPPRESSIONS
+#        check_abi.sh check LIBRARY HEADERS_DIR SUPPRESSIONS BASELINE.abi...
+#
+# There is one baseline per release of the major version
+# (tests/abi/libaacbvh-1.0.abi, -1.1.abi, ...), never rewritten: check compares
+# the library with every one given, so what 1.0 promised stays guarded
+# whatever later baselines say.
 #
 # LIBRARY must carry DWARF debug information for the C entry points (the
 # build's aacbvh_abi_probe target: capi.cpp compiled with -g and linked like
@@ -35,35 +40,39 @@ dump)
     echo "wrote $4 ($(grep -c '<elf-symbol ' "$4") ELF symbols) from $2"
     ;;
 check)
-    [ $# -eq 5 ] || { echo "usage: $0 check LIBRARY HEADERS_DIR BASELINE.abi SUPPRESSIONS" >&2; exit 2; }
-    lib=$2 headers=$3 baseline=$4 suppressions=$5
+    [ $# -ge 5 ] || { echo "usage: $0 check LIBRARY HEADERS_DIR SUPPRESSIONS BASELINE.abi..." >&2; exit 2; }
+    lib=$2 headers=$3 suppressions=$4
+    shift 4
     tmp=$(mktemp -d)
     trap 'rm -rf "$tmp"' EXIT
     dump "$lib" "$headers" "$tmp/current.abi"
-    set +e
-    "$ABIDIFF" --no-added-syms --suppressions "$suppressions" "$baseline" "$tmp/current.abi" > "$tmp/report"
-    rc=$?
-    set -e
-    cat "$tmp/report"
-    # abidiff's exit status is a bit set: 1 error, 2 usage error, 4 ABI change,
-    # 8 incompatible ABI change.
-    if [ $((rc & 3)) -ne 0 ]; then
-        echo "FAIL: abidiff could not compare (exit $rc)"
-        exit 1
-    fi
-    if [ $((rc & 8)) -ne 0 ]; then
-        echo "FAIL: incompatible ABI change against $baseline (abidiff exit $rc)."
-        echo "Within major version 1 this is not allowed (docs/ABI.md)."
-        exit 1
-    fi
-    if [ $((rc & 4)) -ne 0 ]; then
-        echo "FAIL: ABI change against $baseline (abidiff exit $rc) that docs/ABI.md does not allow."
-        echo "If the change is intended and compatible (e.g. before the first release of this"
-        echo "major version), refresh the baseline with scripts/update_abi_baseline.sh and say why"
-        echo "in the commit; otherwise undo it."
-        exit 1
-    fi
-    echo "ok: the ABI of $lib is compatible with $baseline"
+    status=0
+    for baseline in "$@"; do
+        echo "--- against $baseline"
+        set +e
+        "$ABIDIFF" --no-added-syms --suppressions "$suppressions" "$baseline" "$tmp/current.abi" > "$tmp/report"
+        rc=$?
+        set -e
+        cat "$tmp/report"
+        # abidiff's exit status is a bit set: 1 error, 2 usage error, 4 ABI change,
+        # 8 incompatible ABI change.
+        if [ $((rc & 3)) -ne 0 ]; then
+            echo "FAIL: abidiff could not compare with $baseline (exit $rc)"
+            status=1
+        elif [ $((rc & 8)) -ne 0 ]; then
+            echo "FAIL: incompatible ABI change against $baseline (abidiff exit $rc)."
+            echo "Within a major version this is not allowed (docs/ABI.md)."
+            status=1
+        elif [ $((rc & 4)) -ne 0 ]; then
+            echo "FAIL: ABI change against $baseline (abidiff exit $rc) that docs/ABI.md does not allow."
+            echo "Undo it, or start a new major version (docs/ABI.md); a released baseline is"
+            echo "never rewritten to make this pass."
+            status=1
+        else
+            echo "ok: the ABI of $lib is compatible with $baseline"
+        fi
+    done
+    exit $status
     ;;
 *)
     echo "usage: $0 dump|check ..." >&2

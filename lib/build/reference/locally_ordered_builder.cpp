@@ -15,8 +15,9 @@
 // Morton order, whose bounds (CornerBounds) are refitted as clusters merge: a
 // merged cluster takes the lower slot of its two parts and the other slot
 // becomes empty. A query walks it depth first, nearer child first, and skips
-// a subtree whose distance bound is no smaller than the best distance found. Each merge costs O(log n) refitting; about
-// 2-3 queries per merge, each near O(log n) on typical scenes.
+// a subtree whose distance bound is no smaller than the best distance found.
+// Each merge costs O(log n) refitting and a few queries, each near O(log n)
+// on typical scenes (figures: docs/PERFORMANCE.md, "Figures from code comments").
 //
 // Distances are computed on extents scaled by 1 / the scene's largest extent,
 // as AAC does (distance_scale()), so scenes at 1e30 or 1e-30 keep finite,
