@@ -114,7 +114,12 @@ CPP
 
 # -DBUILD_TESTING=ON: without cmocka the configure step fails and says what to
 # install, instead of leaving the tests out.
-run_stage "release" "$AACBVH_BUILD_DIR" "" -- -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTING=ON
+# The Python tests use Debian's python3 where it is there: it is the one the
+# apt-installed numpy, venv, setuptools and wheel belong to (a pyenv or conda
+# python3 first on PATH would skip python_numpy and python_install).
+python_args=()
+[ -x /usr/bin/python3 ] && python_args=(-DPython3_EXECUTABLE=/usr/bin/python3)
+run_stage "release" "$AACBVH_BUILD_DIR" "" -- -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTING=ON "${python_args[@]}"
 
 if [ "${AACBVH_SANITIZERS:-1}" != 0 ]; then
     # Sanitized builds keep debug info for readable reports; any report fails the test.
