@@ -170,6 +170,83 @@ static void test_concurrent_queries_wide4(void **state) {
     check_concurrent_queries(AACBVH_LAYOUT_WIDE4);
 }
 
+/* A build's peak memory is its own, also while another application thread
+ * builds on the same context and the two threads run each other's tasks:
+ * the sweep builder allocates its sort keys inside forked tasks. */
+typedef struct sweep_job {
+    aacbvh_context *ctx;
+    const ts_mesh *mesh;
+    pthread_mutex_t mutex;
+    int stop; /* under mutex */
+    int builds;
+} sweep_job;
+
+static int sweep_should_stop(sweep_job *job) {
+    pthread_mutex_lock(&job->mutex);
+    const int stop = job->stop;
+    pthread_mutex_unlock(&job->mutex);
+    return stop;
+}
+
+static void *sweep_thread(void *arg) {
+    sweep_job *job = (sweep_job *)arg;
+    aacbvh_bvh *bvh = NULL;
+    if (aacbvh_bvh_create(job->ctx, &bvh) != AACBVH_OK) return NULL;
+    aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, AACBVH_BUILDER_SWEEP_SAH);
+    aacbvh_bvh_set_triangles(bvh, job->mesh->vertices, job->mesh->vertex_count, 3 * sizeof(float),
+                             job->mesh->indices, job->mesh->triangle_count);
+    while (!sweep_should_stop(job) && aacbvh_bvh_build(bvh) == AACBVH_OK) ++job->builds;
+    aacbvh_bvh_destroy(bvh);
+    return NULL;
+}
+
+static uint64_t peak_of_build(aacbvh_bvh *bvh) {
+    aacbvh_stats stats;
+    stats.struct_size = sizeof stats;
+    TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_get_stats(bvh, &stats), AACBVH_OK);
+    return stats.build_peak_bytes;
+}
+
+static void test_peak_is_the_builds_own(void **state) {
+    (void)state;
+    ts_mesh mine = {0}, other = {0};
+    aacbvh_context *ctx;
+    aacbvh_bvh *bvh;
+    sweep_job job;
+    pthread_t thread;
+    assert_true(ts_make_scene(TS_SCENE_RANDOM, 40000, 41, &mine));
+    assert_true(ts_make_scene(TS_SCENE_RANDOM, 150000, 42, &other));
+    ts_create(2, &ctx, &bvh);
+    /* Binned SAH allocates on the building thread only: its peak is fixed. */
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, AACBVH_BUILDER_BINNED_SAH), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_triangles(bvh, mine.vertices, mine.vertex_count, 3 * sizeof(float), mine.indices,
+                                              mine.triangle_count),
+                     AACBVH_OK);
+    const uint64_t alone = peak_of_build(bvh);
+    job.ctx = ctx;
+    job.mesh = &other;
+    job.stop = 0;
+    job.builds = 0;
+    assert_int_equal(pthread_mutex_init(&job.mutex, NULL), 0);
+    assert_int_equal(pthread_create(&thread, NULL, sweep_thread, &job), 0);
+    for (int i = 0; i < 30; ++i) {
+        const uint64_t p = peak_of_build(bvh);
+        if (p != alone)
+            fail_msg("build %d beside a sweep build: peak %llu bytes, alone %llu", i, (unsigned long long)p,
+                     (unsigned long long)alone);
+    }
+    pthread_mutex_lock(&job.mutex);
+    job.stop = 1;
+    pthread_mutex_unlock(&job.mutex);
+    assert_int_equal(pthread_join(thread, NULL), 0);
+    pthread_mutex_destroy(&job.mutex);
+    aacbvh_bvh_destroy(bvh);
+    aacbvh_context_destroy(ctx);
+    ts_mesh_free(&mine);
+    ts_mesh_free(&other);
+}
+
 /* Each thread reads the message of its own last failure on a shared handle. */
 typedef struct error_job {
     aacbvh_bvh *bvh;
@@ -225,6 +302,7 @@ int main(void) {
         cmocka_unit_test(test_concurrent_queries_binary),
         cmocka_unit_test(test_concurrent_queries_wide4),
         cmocka_unit_test(test_errors_are_per_thread),
+        cmocka_unit_test(test_peak_is_the_builds_own),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -226,6 +226,11 @@ struct Scheduler::Pool {
 
     void run_stolen(Task *task) {
         try {
+            // The task's build's meter, and no block cache: the thief may be
+            // another build's thread, and a cache is only ever touched by the
+            // thread that owns it.
+            const MemoryMeter::Scope metered(task->meter);
+            const BlockCache::Scope uncached(nullptr);
             task->fn(task->ctx);
         } catch (...) {
             task->error = std::current_exception();

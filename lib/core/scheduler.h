@@ -22,6 +22,8 @@
 #include <type_traits>
 #include <utility>
 
+#include "core/memory.h"
+
 namespace aacbvh {
 
 namespace detail {
@@ -33,6 +35,9 @@ struct Task {
     void *ctx = nullptr;
     std::atomic<int> state{kPending};
     std::exception_ptr error; ///< set by a thief whose run of fn threw
+    /// The forking thread's build meter: a thief counts what the task
+    /// allocates there, not in the build it happens to be helping with.
+    MemoryMeter *meter = nullptr;
 };
 
 template <class F> void invoke_erased(void *f) { (*static_cast<F *>(f))(); }
@@ -109,6 +114,7 @@ private:
         detail::Task tb;
         tb.fn = &detail::invoke_erased<B>;
         tb.ctx = detail::erase(b);
+        tb.meter = MemoryMeter::current();
         fork_join_impl(tb, &detail::invoke_erased<A>, detail::erase(a));
     }
 
