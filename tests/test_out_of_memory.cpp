@@ -166,24 +166,36 @@ struct Scene {
     std::vector<aacbvh_ray> rays;
 };
 
+/// Uniform floats in [0, 1) from a xorshift64 state.
+struct Xorshift {
+    uint64_t x;
+    float next() {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        return float(x >> 40) / float(1 << 24);
+    }
+};
+
+/// `n` small triangles around random centres in [lo, lo + span)^3, each of
+/// its own three vertices, appended to vertices / indices.
+void random_soup(size_t n, float lo, float span, float size, Xorshift &rng, std::vector<float> &vertices,
+                 std::vector<uint32_t> &indices) {
+    for (size_t t = 0; t < n; ++t) {
+        const float c[3] = {lo + span * rng.next(), lo + span * rng.next(), lo + span * rng.next()};
+        for (int j = 0; j < 3; ++j) {
+            for (int k = 0; k < 3; ++k) vertices.push_back(c[k] + (rng.next() - 0.5f) * size);
+            indices.push_back(uint32_t(vertices.size() / 3 - 1));
+        }
+    }
+}
+
 const Scene &scene() {
     static const Scene s = [] {
         Scene sc;
-        uint64_t x = 88172645463325252ull;
-        auto next = [&x] {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            return float(x >> 40) / float(1 << 24);
-        };
-        const size_t n = 2000;
-        for (size_t t = 0; t < n; ++t) {
-            float c[3] = {next() * 2 - 1, next() * 2 - 1, next() * 2 - 1};
-            for (int j = 0; j < 3; ++j) {
-                for (int k = 0; k < 3; ++k) sc.vertices.push_back(c[k] + (next() - 0.5f) * 0.2f);
-                sc.indices.push_back(uint32_t(3 * t + j));
-            }
-        }
+        Xorshift rng{88172645463325252ull};
+        auto next = [&rng] { return rng.next(); };
+        random_soup(2000, -1.0f, 2.0f, 0.2f, rng, sc.vertices, sc.indices);
         for (int i = 0; i < 256; ++i) {
             aacbvh_ray r;
             for (int k = 0; k < 3; ++k) {
@@ -453,21 +465,9 @@ void test_queries(void **) {
 void test_destroy_releases_everything(void **) {
     std::vector<float> vertices;
     std::vector<uint32_t> indices;
-    uint64_t x = 0x9E3779B97F4A7C15ull;
-    auto next = [&x] {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        return float(x >> 40) / float(1 << 24);
-    };
+    Xorshift rng{0x9E3779B97F4A7C15ull};
     const size_t n = 120000;
-    for (size_t t = 0; t < n; ++t) {
-        const float c[3] = {next(), next(), next()};
-        for (int j = 0; j < 3; ++j) {
-            for (int k = 0; k < 3; ++k) vertices.push_back(c[k] + next() * 0.01f);
-            indices.push_back(uint32_t(3 * t + j));
-        }
-    }
+    random_soup(n, 0.0f, 1.0f, 0.02f, rng, vertices, indices);
     const int64_t blocks_before = g_live_blocks.load();
     const int64_t system_before = aacbvh::testing::system_block_bytes.load();
     aacbvh_context *ctx = nullptr;

@@ -10,6 +10,7 @@
 //   aacbvh-bench [options] [scene.obj ...]      (aacbvh-bench --help)
 #include <aacbvh/aacbvh.h>
 
+#include "cli.h"
 #include "embree_bench.h"
 #include "ray_cost.h"
 #include "rays.h"
@@ -136,27 +137,6 @@ void usage(FILE *out) {
         "  -h, --help        this text\n",
         embree_compiled() ? ("Embree " + embree_version()).c_str() : "Embree not compiled in",
         AACBVH_SCENES_DIR[0] ? AACBVH_SCENES_DIR : "(no scenes directory compiled in)");
-}
-
-std::vector<std::string> split(const std::string &s, char sep) {
-    std::vector<std::string> out;
-    size_t start = 0;
-    while (start <= s.size()) {
-        const size_t end = s.find(sep, start);
-        const std::string part = s.substr(start, end == std::string::npos ? std::string::npos : end - start);
-        if (!part.empty()) out.push_back(part);
-        if (end == std::string::npos) break;
-        start = end + 1;
-    }
-    return out;
-}
-
-bool parse_uint(const char *s, uint64_t &out) {
-    char *end = nullptr;
-    const unsigned long long v = std::strtoull(s, &end, 10);
-    if (!s[0] || *end || s[0] == '-') return false;
-    out = v;
-    return true;
 }
 
 bool parse_args(int argc, char **argv, Options &opt) {
@@ -429,18 +409,6 @@ double hit_disagreement(const std::vector<CountedHit> &counted, const std::vecto
         else if (h0 && std::fabs(counted[i].t - lib[i].t) > 1e-3f * std::max(1.0f, std::fabs(lib[i].t))) ++bad;
     }
     return double(bad) / counted.size();
-}
-
-std::string cpu_name() {
-    std::ifstream f("/proc/cpuinfo");
-    std::string line;
-    while (std::getline(f, line)) {
-        if (line.rfind("model name", 0) == 0) {
-            const size_t c = line.find(':');
-            if (c != std::string::npos) return line.substr(c + 2);
-        }
-    }
-    return "unknown CPU";
 }
 
 std::string format_check(const std::string &scene, const char *label, double own, double lib) {

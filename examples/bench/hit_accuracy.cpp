@@ -15,6 +15,7 @@
 //   aacbvh-hit-accuracy [options]      (aacbvh-hit-accuracy --help)
 #include <aacbvh/aacbvh.h>
 
+#include "cli.h"
 #include "rays.h"
 #include "scene.h"
 
@@ -104,27 +105,6 @@ void usage(FILE *out) {
         "  -h, --help        this text\n",
         embree_compiled() ? embree_label().c_str() : "not compiled in",
         AACBVH_SCENES_DIR[0] ? AACBVH_SCENES_DIR : "(no scenes directory compiled in)");
-}
-
-std::vector<std::string> split(const std::string &s, char sep) {
-    std::vector<std::string> out;
-    size_t start = 0;
-    while (start <= s.size()) {
-        const size_t end = s.find(sep, start);
-        const std::string part = s.substr(start, end == std::string::npos ? std::string::npos : end - start);
-        if (!part.empty()) out.push_back(part);
-        if (end == std::string::npos) break;
-        start = end + 1;
-    }
-    return out;
-}
-
-bool parse_uint(const char *s, uint64_t &out) {
-    char *end = nullptr;
-    const unsigned long long v = std::strtoull(s, &end, 10);
-    if (!s[0] || *end || s[0] == '-') return false;
-    out = v;
-    return true;
 }
 
 bool parse_args(int argc, char **argv, Options &opt) {
@@ -220,18 +200,6 @@ bool load_scene(const std::string &spec, Scene &scene, std::string &err) {
         if (path.size() < 4 || path.compare(path.size() - 4, 4, ".obj") != 0) path += ".obj";
     }
     return load_obj(path, scene, err);
-}
-
-std::string cpu_name() {
-    std::ifstream f("/proc/cpuinfo");
-    std::string line;
-    while (std::getline(f, line)) {
-        if (line.rfind("model name", 0) == 0) {
-            const size_t c = line.find(':');
-            if (c != std::string::npos) return line.substr(c + 2);
-        }
-    }
-    return "unknown CPU";
 }
 
 double median(std::vector<double> v) {
