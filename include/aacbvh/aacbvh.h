@@ -16,11 +16,13 @@
  *     ... move vertices in place, then aacbvh_bvh_refit(bvh) each frame ...
  *     aacbvh_bvh_destroy(bvh);  aacbvh_context_destroy(ctx);
  *
- * Every fallible call returns an aacbvh_status; after a failure on a BVH
- * handle, aacbvh_bvh_last_error() explains it to the thread that made the
- * call, and aacbvh_last_error() explains failures without a handle (both per
- * thread). The library never prints,
- * exits or aborts, and no C++ exception crosses this interface.
+ * Every fallible call returns an aacbvh_status: the ones its comment lists,
+ * and besides them AACBVH_ERROR_OUT_OF_MEMORY from any call that allocates
+ * and AACBVH_ERROR_INTERNAL (a library bug) from any call. After a failure
+ * on a BVH handle, aacbvh_bvh_last_error() explains it to the thread that
+ * made the call, and aacbvh_last_error() explains failures without a handle
+ * (both per thread). The library never prints, exits or aborts, and no C++
+ * exception crosses this interface.
  *
  * Thread safety: a handle may be used by one thread at a time, except that
  * aacbvh_bvh_intersect(), aacbvh_bvh_occluded(), aacbvh_bvh_get_stats(),
@@ -81,7 +83,7 @@ typedef enum aacbvh_status {
     AACBVH_OK = 0,
     AACBVH_ERROR_INVALID_ARGUMENT = 1,  /**< NULL pointer, value out of range, bad stride */
     AACBVH_ERROR_INVALID_OPERATION = 2, /**< call not allowed in this state (e.g. intersect before build) */
-    AACBVH_ERROR_OUT_OF_MEMORY = 3,
+    AACBVH_ERROR_OUT_OF_MEMORY = 3,     /**< memory ran out: any call that allocates may return it (builds, refit, queries and stats use working memory); the call then changed nothing */
     AACBVH_ERROR_INVALID_GEOMETRY = 4,  /**< NaN/infinite coordinates, index out of range */
     AACBVH_ERROR_CANCELLED = 5,         /**< the progress callback asked to stop */
     AACBVH_ERROR_INTERNAL = 6,          /**< a bug in the library (any call may return it); the message says where */
