@@ -45,7 +45,7 @@ void set_soup(aacbvh::BvhObject &object, const std::vector<float> &vertices) {
 }
 
 void *block(size_t bytes) {
-    void *p = std::aligned_alloc(aacbvh::kHugePageBytes, bytes);
+    void *p = aacbvh::allocate_system_block(bytes); // what the cache holds and frees
     assert_non_null(p);
     return p;
 }
@@ -64,9 +64,9 @@ void test_take_best_fit(void **) {
     assert_ptr_equal(cache.take(4 * kMiB - 4096), b4);
     assert_ptr_equal(cache.take(8 * kMiB - kMiB / 2), b8);
     assert_int_equal(cache.bytes(), 0);
-    std::free(b4);
-    std::free(b6);
-    std::free(b8);
+    aacbvh::free_system_block(b4, 4 * kMiB);
+    aacbvh::free_system_block(b6, 6 * kMiB);
+    aacbvh::free_system_block(b8, 8 * kMiB);
 }
 
 void test_build_generations(void **) {
