@@ -499,6 +499,54 @@ static void test_tiny_and_huge_directions(void **state) {
         }
 }
 
+/* Found by the fuzzer: a tiny direction (scaled inside by a power of two)
+ * with a window of denormals. [0, -2^-149] is empty and must stay empty once
+ * scaled (it became [0, -0] and hit at t = 0); a window whose bounds scale
+ * into the denormals must not let in a hit outside it. */
+static void test_tiny_direction_denormal_windows(void **state) {
+    (void)state;
+    const float square[] = {-1.0f, -1.0f, 0.0f, 1.0f, -1.0f, 0.0f, 1.0f, 1.0f, 0.0f, -1.0f, 1.0f, 0.0f};
+    const uint32_t indices[] = {0, 1, 2, 0, 2, 3};
+    for (int layout = AACBVH_LAYOUT_BINARY; layout <= AACBVH_LAYOUT_WIDE4; ++layout) {
+        aacbvh_context *ctx;
+        aacbvh_bvh *bvh;
+        ts_create(1, &ctx, &bvh);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, layout), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_triangles(bvh, square, 4, 12, indices, 2), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+        /* Origins on the square (t = 0) and above it (t = 1e-41 / 1.4e-40 = 0.07...). */
+        const float heights[] = {0.0f, 1e-41f, -1e-41f};
+        const float windows[][2] = {{0.0f, -0x1p-149f}, {0x1p-149f, 0x1p-148f}, {-0x1p-149f, 0.0f},
+                                    {0x1p-149f, INFINITY}, {0.0f, 0.0f}, {0.5f, 0.01f}};
+        for (size_t hi = 0; hi < sizeof heights / sizeof heights[0]; ++hi)
+            for (size_t wi = 0; wi < sizeof windows / sizeof windows[0]; ++wi) {
+                const aacbvh_ray ray = {{0.25f, 0.5f, heights[hi]}, windows[wi][0], {0.0f, 0.0f, -1.4e-40f},
+                                        windows[wi][1]};
+                aacbvh_hit hit;
+                uint8_t occluded = 7;
+                TS_EXPECT_STATUS(aacbvh_bvh_intersect(bvh, &ray, &hit, 1), AACBVH_OK);
+                TS_EXPECT_STATUS(aacbvh_bvh_occluded(bvh, &ray, &occluded, 1), AACBVH_OK);
+                /* The exact t of the plane z = 0. */
+                const double exact = (double)heights[hi] / 1.4e-40;
+                const int inside = exact >= windows[wi][0] && exact <= windows[wi][1] && fabs(exact) <= FLT_MAX;
+                if (hit.prim_id != AACBVH_INVALID_ID &&
+                    !(hit.t >= windows[wi][0] && hit.t <= windows[wi][1] && isfinite(hit.t)))
+                    fail_msg("layout %d, height %g, window [%a, %a]: hit at t = %a outside the window", layout,
+                             (double)heights[hi], (double)windows[wi][0], (double)windows[wi][1], (double)hit.t);
+                if ((hit.prim_id != AACBVH_INVALID_ID) != (occluded == 1))
+                    fail_msg("layout %d: occluded %u but closest hit %u", layout, occluded, hit.prim_id);
+                if (windows[wi][0] > windows[wi][1] && hit.prim_id != AACBVH_INVALID_ID)
+                    fail_msg("layout %d: an empty window [%a, %a] hit", layout, (double)windows[wi][0],
+                             (double)windows[wi][1]);
+                if (inside && exact > 1e-30 && hit.prim_id == AACBVH_INVALID_ID)
+                    fail_msg("layout %d, height %g, window [%a, %a]: missed the square at t = %g", layout,
+                             (double)heights[hi], (double)windows[wi][0], (double)windows[wi][1], exact);
+            }
+        aacbvh_bvh_destroy(bvh);
+        aacbvh_context_destroy(ctx);
+    }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_axis_parallel),
@@ -506,6 +554,7 @@ int main(void) {
         cmocka_unit_test(test_box_entry_beyond_float),
         cmocka_unit_test(test_box_entry_before_float),
         cmocka_unit_test(test_tiny_and_huge_directions),
+        cmocka_unit_test(test_tiny_direction_denormal_windows),
         cmocka_unit_test(test_surface_origin_and_windows),
         cmocka_unit_test(test_empty_windows_always_miss),
         cmocka_unit_test(test_invalid_rays_in_a_batch),

@@ -31,8 +31,7 @@ inline bool ray_is_valid(const aacbvh_ray &ray) {
 /// reaches at t = 1e37. Directions whose largest component lies in
 /// [2^-32, 2^32] are left as they are (shift 0), so ordinary rays take the
 /// usual path bit for bit. The window is cut to [-FLT_MAX, FLT_MAX] first (a
-/// hit's t is always finite); a finite tmin that scales below the denormals
-/// becomes 0.
+/// hit's t is always finite) and scaled rounding inwards.
 struct ScaledRay {
     aacbvh_ray ray;
     int shift = 0;
@@ -44,8 +43,19 @@ struct ScaledRay {
         std::frexp(m, &e); // m = f 2^e, f in [0.5, 1)
         shift = e;
         for (int k = 0; k < 3; ++k) ray.dir[k] = std::ldexp(r.dir[k], -e);
-        ray.tmin = std::ldexp(std::fmax(r.tmin, -FLT_MAX), e);
-        ray.tmax = std::ldexp(std::fmin(r.tmax, FLT_MAX), e);
+        ray.tmin = scale_bound(std::fmax(r.tmin, -FLT_MAX), e, +1);
+        ray.tmax = scale_bound(std::fmin(r.tmax, FLT_MAX), e, -1);
+    }
+    /// t 2^e as a float rounded inwards (up for tmin, `towards` +1; down for
+    /// tmax, -1): the scaled window never reaches past the caller's, also
+    /// where the scaled bound falls into the denormals, so every hit found
+    /// lies in [tmin, tmax] once scaled back (and an empty window stays empty).
+    static float scale_bound(float t, int e, int towards) {
+        const double exact = std::ldexp(double(t), e);
+        float f = float(exact);
+        if (towards > 0 && double(f) < exact) f = std::nextafter(f, INFINITY);
+        if (towards < 0 && double(f) > exact) f = std::nextafter(f, -INFINITY);
+        return f;
     }
     /// The hit of the scaled ray as a hit of the caller's ray.
     void unscale(aacbvh_hit &hit) const {
