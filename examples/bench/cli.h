@@ -1,5 +1,6 @@
 // Command-line helpers the benchmark programs share (aacbvh-bench,
-// aacbvh-hit-accuracy), and the CPU model every reported figure is named with.
+// aacbvh-hit-accuracy): lists, numbers, the scenes named on the command line,
+// and the CPU model every reported figure is named with.
 #pragma once
 
 #include <cstdint>
@@ -7,6 +8,8 @@
 #include <fstream>
 #include <string>
 #include <vector>
+
+#include "scene.h"
 
 namespace bench {
 
@@ -44,6 +47,30 @@ inline std::string cpu_name() {
         }
     }
     return "unknown CPU";
+}
+
+/// Loads a --scenes entry: "procedural" (about 240 K triangles),
+/// "procedural-small" (about 3 K), a path, or the name of an OBJ file in
+/// `scenes_dir` ("" for none; ".obj" may be left out). False with a message
+/// in `err` when it cannot be read.
+inline bool load_scene_spec(const std::string &spec, const char *scenes_dir, Scene &scene, std::string &err) {
+    if (spec == "procedural" || spec == "procedural-small") {
+        ProceduralConfig c;
+        if (spec == "procedural-small") {
+            c.terrain_cells = 32;
+            c.sphere_count = 8;
+            c.sphere_rings = 6;
+        }
+        scene = make_procedural_scene(c);
+        scene.name = spec;
+        return true;
+    }
+    std::string path = spec;
+    if (spec.find('/') == std::string::npos && scenes_dir[0] && !std::ifstream(spec).good()) {
+        path = std::string(scenes_dir) + "/" + spec;
+        if (path.size() < 4 || path.compare(path.size() - 4, 4, ".obj") != 0) path += ".obj";
+    }
+    return load_obj(path, scene, err);
 }
 
 } // namespace bench

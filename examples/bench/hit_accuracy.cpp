@@ -178,28 +178,9 @@ std::string scene_path(const std::string &name) {
 
 bool file_exists(const std::string &path) { return std::ifstream(path).good(); }
 
-/// Resolves a --scenes entry to a loaded scene (as aacbvh-bench does).
+/// Resolves a --scenes entry to a loaded scene.
 bool load_scene(const std::string &spec, Scene &scene, std::string &err) {
-    if (spec == "procedural") {
-        scene = make_procedural_scene();
-        scene.name = "procedural";
-        return true;
-    }
-    if (spec == "procedural-small") {
-        ProceduralConfig c;
-        c.terrain_cells = 32;
-        c.sphere_count = 8;
-        c.sphere_rings = 6;
-        scene = make_procedural_scene(c);
-        scene.name = "procedural-small";
-        return true;
-    }
-    std::string path = spec;
-    if (spec.find('/') == std::string::npos && AACBVH_SCENES_DIR[0] && !file_exists(spec)) {
-        path = scene_path(spec);
-        if (path.size() < 4 || path.compare(path.size() - 4, 4, ".obj") != 0) path += ".obj";
-    }
-    return load_obj(path, scene, err);
+    return load_scene_spec(spec, AACBVH_SCENES_DIR, scene, err);
 }
 
 double median(std::vector<double> v) {
