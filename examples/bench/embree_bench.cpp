@@ -7,6 +7,8 @@
 
 #ifdef AACBVH_BENCH_HAVE_EMBREE
 #include <embree3/rtcore.h>
+
+#include "embree_ray.h"
 #endif
 
 namespace bench {
@@ -284,29 +286,11 @@ bool embree_scene_bench(const std::vector<float> &vertices, const std::vector<ui
                 const auto t0 = Clock::now();
                 for (const aacbvh_ray &r : set) {
                     if (kind == kShadow) {
-                        RTCRay ray;
-                        ray.org_x = r.org[0]; ray.org_y = r.org[1]; ray.org_z = r.org[2];
-                        ray.dir_x = r.dir[0]; ray.dir_y = r.dir[1]; ray.dir_z = r.dir[2];
-                        ray.tnear = r.tmin;
-                        ray.tfar = r.tmax;
-                        ray.time = 0.0f;
-                        ray.mask = 0xFFFFFFFFu;
-                        ray.id = 0;
-                        ray.flags = 0;
+                        RTCRay ray = embree_ray(r);
                         rtcOccluded1(scene, &context, &ray);
                         hit_count += ray.tfar < 0.0f;  // set to -inf when occluded
                     } else {
-                        RTCRayHit rh;
-                        rh.ray.org_x = r.org[0]; rh.ray.org_y = r.org[1]; rh.ray.org_z = r.org[2];
-                        rh.ray.dir_x = r.dir[0]; rh.ray.dir_y = r.dir[1]; rh.ray.dir_z = r.dir[2];
-                        rh.ray.tnear = r.tmin;
-                        rh.ray.tfar = r.tmax;
-                        rh.ray.time = 0.0f;
-                        rh.ray.mask = 0xFFFFFFFFu;
-                        rh.ray.id = 0;
-                        rh.ray.flags = 0;
-                        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-                        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+                        RTCRayHit rh = embree_ray_hit(r);
                         rtcIntersect1(scene, &context, &rh);
                         hit_count += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
                     }

@@ -33,6 +33,8 @@
 
 #ifdef AACBVH_BENCH_HAVE_EMBREE
 #include <embree3/rtcore.h>
+
+#include "embree_ray.h"
 #endif
 
 #ifndef AACBVH_SCENES_DIR
@@ -272,22 +274,7 @@ class EmbreeScene {
             const auto t0 = Clock::now();
             for (size_t i = 0; i < rays.size(); ++i) {
                 const aacbvh_ray &r = rays[i];
-                RTCRayHit rh;
-                rh.ray.org_x = r.org[0];
-                rh.ray.org_y = r.org[1];
-                rh.ray.org_z = r.org[2];
-                rh.ray.dir_x = r.dir[0];
-                rh.ray.dir_y = r.dir[1];
-                rh.ray.dir_z = r.dir[2];
-                rh.ray.tnear = r.tmin;
-                rh.ray.tfar = r.tmax;
-                rh.ray.time = 0.0f;
-                rh.ray.mask = 0xFFFFFFFFu;
-                rh.ray.id = 0;
-                rh.ray.flags = 0;
-                rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-                rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
-                rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+                RTCRayHit rh = embree_ray_hit(r);
                 rtcIntersect1(scene_, &context, &rh);
                 Hit &h = out.hits[i];
                 if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {

@@ -95,6 +95,9 @@ private:
 
 constexpr size_t kHugePageBytes = size_t(1) << 21;
 
+/// A big block's size: `bytes` rounded up to whole 2 MiB pages.
+constexpr size_t round_to_block(size_t bytes) { return (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1); }
+
 /// Over-aligned element types (such as 64-byte wide nodes) get their
 /// alignment in small blocks too; big blocks are 2 MiB aligned anyway.
 inline bool over_aligned(size_t align) { return align > __STDCPP_DEFAULT_NEW_ALIGNMENT__; }
@@ -113,7 +116,7 @@ inline void *allocate_build_memory(size_t bytes, size_t align = alignof(std::max
     if (MemoryMeter *m = MemoryMeter::current()) m->add(int64_t(bytes));
     if (bytes < kHugePageBytes)
         return over_aligned(align) ? ::operator new(bytes, std::align_val_t(align)) : ::operator new(bytes);
-    const size_t rounded = (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
+    const size_t rounded = round_to_block(bytes);
     if (BlockCache *cache = BlockCache::current())
         if (void *kept = cache->take(rounded)) return kept;
     return allocate_system_block(rounded);
@@ -127,9 +130,9 @@ inline void free_build_memory(void *p, size_t bytes, size_t align = alignof(std:
     else if (bytes < kHugePageBytes)
         ::operator delete(p);
     else if (BlockCache *cache = BlockCache::current())
-        cache->keep(p, (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1));
+        cache->keep(p, round_to_block(bytes));
     else
-        free_system_block(p, (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1));
+        free_system_block(p, round_to_block(bytes));
 }
 
 template <class T> struct BuildAllocator {
@@ -160,7 +163,7 @@ template <class T> using Array = std::vector<T, BuildAllocator<T>>;
 /// 2 MiB granularity of big blocks. What memory_bytes reports.
 template <class T> size_t held_bytes(const Array<T> &a) {
     const size_t bytes = a.capacity() * sizeof(T);
-    return bytes < kHugePageBytes ? bytes : (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
+    return bytes < kHugePageBytes ? bytes : round_to_block(bytes);
 }
 
 } // namespace aacbvh

@@ -58,12 +58,9 @@ struct ScaledRay {
         return f;
     }
     /// The hit of the scaled ray as a hit of the caller's ray.
+    /// Exact: the scaled window lies within [-FLT_MAX, FLT_MAX] 2^shift.
     void unscale(aacbvh_hit &hit) const {
-        if (shift == 0 || hit.prim_id == AACBVH_INVALID_ID) return;
-        hit.t = std::ldexp(hit.t, -shift);
-        // Saturation follows the window cut above: entries clamp at -FLT_MAX.
-        if (hit.t < -FLT_MAX) hit.t = -FLT_MAX;
-        if (hit.t > FLT_MAX) hit.t = FLT_MAX;
+        if (shift != 0 && hit.prim_id != AACBVH_INVALID_ID) hit.t = std::ldexp(hit.t, -shift);
     }
 };
 

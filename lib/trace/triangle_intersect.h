@@ -18,7 +18,6 @@ namespace aacbvh {
 /// Per-ray constants of the watertight test (section 3 of the paper).
 struct TriangleRay {
     float org[3];
-    float dir[3];
     double org_d[3], dir_d[3]; ///< org and dir in double, for the hit distance (triangle_distance())
     int kx, ky, kz;   ///< kz: dominant axis of dir; kx, ky the other two, swapped to keep winding
     float sx, sy;     ///< shear: dir[kx] / dir[kz], dir[ky] / dir[kz] (at most 1 in magnitude)
@@ -28,7 +27,6 @@ struct TriangleRay {
 inline TriangleRay make_triangle_ray(const float org[3], const float dir[3]) {
     TriangleRay r;
     r.org[0] = org[0]; r.org[1] = org[1]; r.org[2] = org[2];
-    r.dir[0] = dir[0]; r.dir[1] = dir[1]; r.dir[2] = dir[2];
     for (int k = 0; k < 3; ++k) {
         r.org_d[k] = org[k];
         r.dir_d[k] = dir[k];
@@ -90,10 +88,10 @@ inline bool has_area(const float *p0, const float *p1, const float *p2) {
                                                                 double &t) {
     double enter = -INFINITY, leave = INFINITY;
     for (int k = 0; k < 3; ++k) {
-        if (r.dir[k] == 0.0f) continue;
-        const double lo = double(std::min(std::min(p0[k], p1[k]), p2[k])) - double(r.org[k]);
-        const double hi = double(std::max(std::max(p0[k], p1[k]), p2[k])) - double(r.org[k]);
-        const double a = lo / double(r.dir[k]), b = hi / double(r.dir[k]);
+        if (r.dir_d[k] == 0.0) continue;
+        const double lo = double(std::min(std::min(p0[k], p1[k]), p2[k])) - r.org_d[k];
+        const double hi = double(std::max(std::max(p0[k], p1[k]), p2[k])) - r.org_d[k];
+        const double a = lo / r.dir_d[k], b = hi / r.dir_d[k];
         enter = std::max(enter, std::min(a, b));
         leave = std::min(leave, std::max(a, b));
     }

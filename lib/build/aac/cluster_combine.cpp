@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <thread>
 #include <cfloat>
 #include <cmath>
 
@@ -310,11 +311,22 @@ CombineScratch &CombineScratchPool::local() {
     };
     static thread_local Cached cached;
     if (cached.pool == id_) return *cached.scratch;
+    // A miss: the thread's first combine of this build, or its first after a
+    // build started from a progress callback took the cache over. Its slot,
+    // if it has one, is found by owner.
+    const std::thread::id me = std::this_thread::get_id();
     std::lock_guard<std::mutex> lock(mutex_);
-    slots_.push_back(std::make_unique<CombineScratch>());
-    slots_.back()->meter = meter_;
-    cached = Cached{id_, slots_.back().get()};
-    return *cached.scratch;
+    CombineScratch *mine = nullptr;
+    for (const auto &slot : slots_)
+        if (slot->owner == me) mine = slot.get();
+    if (!mine) {
+        slots_.push_back(std::make_unique<CombineScratch>());
+        mine = slots_.back().get();
+        mine->meter = meter_;
+        mine->owner = me;
+    }
+    cached = Cached{id_, mine};
+    return *mine;
 }
 
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,

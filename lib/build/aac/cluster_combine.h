@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <thread>
 #include <vector>
 
 #include "build/binary_tree.h"
@@ -30,6 +31,7 @@ struct CombineScratch {
     Array<uint32_t> nearest;
     Array<uint32_t> rescan;        ///< slots whose nearest neighbour must be found again
     MemoryMeter *meter = nullptr;  ///< the build's meter
+    std::thread::id owner;         ///< the one thread that uses it
 };
 
 /// One build's combine scratch: one CombineScratch per thread that runs a
