@@ -186,6 +186,14 @@ fi
 # The libFuzzer harness over the committed corpus, AACBVH_FUZZ_SECONDS (60) long.
 if [ "${AACBVH_FUZZ:-1}" != 0 ]; then
     install_if_missing clang++-14 clang-14 libclang-rt-14-dev || true
+    # Debian's image may have clang-14 without its libFuzzer runtime: the
+    # command is there, the library is not.
+    if [ "$(id -u)" = 0 ] && command -v dpkg > /dev/null 2>&1 && ! dpkg -s libclang-rt-14-dev > /dev/null 2>&1; then
+        log "installing libclang-rt-14-dev (libFuzzer for clang++-14)"
+        DEBIAN_FRONTEND=noninteractive apt-get install -y libclang-rt-14-dev > /dev/null 2>&1 ||
+            { apt-get update > /dev/null && DEBIAN_FRONTEND=noninteractive apt-get install -y libclang-rt-14-dev > /dev/null; } ||
+            true
+    fi
     if ! bash "$AACBVH_ROOT/scripts/fuzz.sh"; then
         failed+=("fuzz")
     fi
