@@ -18,6 +18,7 @@
 #include "core/memory.h"
 #include "trace/traversal.h"
 #include "trace/wide_traversal.h"
+#include "trace/wide8_traversal.h"
 
 namespace aacbvh {
 
@@ -137,6 +138,7 @@ void BvhObject::build() {
     MemoryMeter meter;
     Bvh result;
     WideBvh wide;
+    Wide8Bvh wide8;
     Array<float> triangles;
     uint64_t invalid_count = 0;
     {
@@ -160,7 +162,8 @@ void BvhObject::build() {
             emit_bvh(tree, rule, choices, ctx, result);
         }
         if (params.layout == AACBVH_LAYOUT_WIDE4) wide.build(result, scheduler_);
-        if (geometry_.kind == GeometryKind::Triangles && params.triangle_storage == AACBVH_TRIANGLES_COPIED) {
+        if (params.layout == AACBVH_LAYOUT_WIDE8) wide8.build(result, packets_wanted() ? &geometry_ : nullptr, scheduler_);
+        if (flat_copy_wanted()) {
             triangles.resize(9 * result.prim_ids.size());
             copy_triangles(result, triangles.data());
         }
@@ -170,6 +173,7 @@ void BvhObject::build() {
     // Success: only now does the handle change.
     bvh_ = std::move(result);
     wide_ = std::move(wide);
+    wide8_ = std::move(wide8);
     triangles_.swap(triangles);
     invalid_count_ = invalid_count;
     build_peak_bytes_ = uint64_t(meter.peak());
@@ -183,6 +187,16 @@ void BvhObject::build() {
         built_areas_known_ = false; // the same, until a refit changes the boxes
     }
     build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+bool BvhObject::packets_wanted() const {
+    return params.layout == AACBVH_LAYOUT_WIDE8 && geometry_.kind == GeometryKind::Triangles &&
+           params.triangle_storage == AACBVH_TRIANGLES_COPIED;
+}
+
+bool BvhObject::flat_copy_wanted() const {
+    return params.layout != AACBVH_LAYOUT_WIDE8 && geometry_.kind == GeometryKind::Triangles &&
+           params.triangle_storage == AACBVH_TRIANGLES_COPIED;
 }
 
 void BvhObject::refit() {
@@ -211,11 +225,16 @@ void BvhObject::refit() {
         wide_.clear();
     else if (!wide_.built())
         wide_.build(bvh_, scheduler_);
+    // The 8-wide tree likewise; its packets are copied from the geometry
+    // being refitted to, which has passed the checks above.
+    if (params.layout != AACBVH_LAYOUT_WIDE8)
+        wide8_.clear();
+    else if (!wide8_.built() || wide8_.has_packets() != packets_wanted())
+        wide8_.build(bvh_, packets_wanted() ? &geometry_ : nullptr, scheduler_);
     // The triangle copy (AACBVH_TRIANGLES_COPIED) is allocated before the
     // refit, so that running out of memory leaves the tree as it was, and
     // filled in place after it.
-    const bool copied = geometry_.kind == GeometryKind::Triangles &&
-                        params.triangle_storage == AACBVH_TRIANGLES_COPIED;
+    const bool copied = flat_copy_wanted();
     if (!copied)
         Array<float>().swap(triangles_);
     else if (triangles_.size() != 9 * bvh_.prim_ids.size())
@@ -239,6 +258,7 @@ void BvhObject::refit() {
         if (figures_known_) figures_.areas = sum_areas(bvh_, scheduler_);
     }
     if (wide_.built()) wide_.refit(bvh_, scheduler_);
+    if (wide8_.built()) wide8_.refit(bvh_, geometry_, scheduler_);
     valid_ = true;
 }
 
@@ -266,7 +286,7 @@ void BvhObject::stats(aacbvh_stats &out) const {
     out.primitive_count = bvh_.prim_ids.size();
     out.sah_cost = f.areas.sah_cost(params.traversal_cost, params.intersection_cost);
     out.kept_build_bytes = kept_build_bytes();
-    out.memory_bytes = sizeof(*this) + bvh_.memory_bytes() + wide_.memory_bytes() +
+    out.memory_bytes = sizeof(*this) + bvh_.memory_bytes() + wide_.memory_bytes() + wide8_.memory_bytes() +
                        held_bytes(triangles_) + out.kept_build_bytes;
     out.invalid_primitive_count = invalid_count_;
     out.build_peak_bytes = build_peak_bytes_;
@@ -282,6 +302,13 @@ void BvhObject::stats(aacbvh_stats &out) const {
 void BvhObject::intersect(const aacbvh_ray *rays, aacbvh_hit *hits, size_t count) const {
     require_tree();
     const float *triangles = triangle_copy();
+    if (wide8_.built()) {
+        const Wide8Kernel &kernel = wide8_kernel();
+        scheduler_.parallel_for(0, count, 256, [&](size_t b, size_t e) {
+            for (size_t i = b; i < e; ++i) kernel.intersect(wide8_, bvh_, geometry_, rays[i], hits[i]);
+        });
+        return;
+    }
     scheduler_.parallel_for(0, count, 1024, [&](size_t b, size_t e) {
         if (wide_.built())
             for (size_t i = b; i < e; ++i) intersect_ray_wide(wide_, bvh_, geometry_, rays[i], hits[i], triangles);
@@ -293,6 +320,13 @@ void BvhObject::intersect(const aacbvh_ray *rays, aacbvh_hit *hits, size_t count
 void BvhObject::occluded(const aacbvh_ray *rays, uint8_t *out, size_t count) const {
     require_tree();
     const float *triangles = triangle_copy();
+    if (wide8_.built()) {
+        const Wide8Kernel &kernel = wide8_kernel();
+        scheduler_.parallel_for(0, count, 256, [&](size_t b, size_t e) {
+            for (size_t i = b; i < e; ++i) out[i] = kernel.occluded(wide8_, bvh_, geometry_, rays[i]) ? 1 : 0;
+        });
+        return;
+    }
     scheduler_.parallel_for(0, count, 1024, [&](size_t b, size_t e) {
         if (wide_.built())
             for (size_t i = b; i < e; ++i) out[i] = occluded_ray_wide(wide_, bvh_, geometry_, rays[i], triangles) ? 1 : 0;

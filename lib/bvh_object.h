@@ -12,6 +12,7 @@
 #include "bvh/bvh.h"
 #include "bvh/bvh_stats.h"
 #include "bvh/wide_bvh.h"
+#include "bvh/wide8_bvh.h"
 #include "core/block_cache.h"
 #include "core/geometry.h"
 #include "core/scheduler.h"
@@ -62,6 +63,11 @@ private:
     /// bvh.prim_ids[i] at out[9 i] (out holds 9 * bvh.prim_ids.size()).
     /// Geometry must be triangles with valid indices.
     void copy_triangles(const Bvh &bvh, float *out) const;
+    /// Whether the last build or refit keeps triangles in leaf order as
+    /// triangles_ (copied storage, a layout other than WIDE8, whose packets
+    /// hold them instead).
+    bool flat_copy_wanted() const;
+    bool packets_wanted() const;
     /// The copy the traversals read, or NULL to read the caller's buffers.
     const float *triangle_copy() const { return triangles_.empty() ? nullptr : triangles_.data(); }
 
@@ -73,6 +79,9 @@ private:
     bool geometry_set_ = false;
     Bvh bvh_;
     WideBvh wide_; ///< built when params.layout was AACBVH_LAYOUT_WIDE4 at the last build or refit
+    /// Built when params.layout was AACBVH_LAYOUT_WIDE8 at the last build or
+    /// refit; with copied triangles its packets are the copy (triangles_ stays empty).
+    Wide8Bvh wide8_;
     /// Triangles in leaf order (9 floats per slot), kept when
     /// params.triangle_storage was AACBVH_TRIANGLES_COPIED at the last build or refit.
     Array<float> triangles_;

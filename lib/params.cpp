@@ -89,8 +89,9 @@ void Params::set_int(int32_t key, int64_t value) {
         skip_invalid = value == 1;
         break;
     case AACBVH_PARAM_TRAVERSAL_LAYOUT:
-        if (value != AACBVH_LAYOUT_BINARY && value != AACBVH_LAYOUT_WIDE4)
-            reject("traversal layout must be AACBVH_LAYOUT_BINARY (0) or AACBVH_LAYOUT_WIDE4 (1), got " +
+        if (value != AACBVH_LAYOUT_BINARY && value != AACBVH_LAYOUT_WIDE4 && value != AACBVH_LAYOUT_WIDE8)
+            reject("traversal layout must be AACBVH_LAYOUT_BINARY (0), AACBVH_LAYOUT_WIDE4 (1) or "
+                   "AACBVH_LAYOUT_WIDE8 (2), got " +
                    std::to_string(value));
         layout = aacbvh_layout(value);
         break;

@@ -18,8 +18,8 @@ struct Params {
     double intersection_cost = 1.0;
     uint32_t ploc_radius = 16;
     bool skip_invalid = false;
-    aacbvh_layout layout = AACBVH_LAYOUT_BINARY;
-    aacbvh_triangle_storage triangle_storage = AACBVH_TRIANGLES_REFERENCED;
+    aacbvh_layout layout = AACBVH_LAYOUT_WIDE8;
+    aacbvh_triangle_storage triangle_storage = AACBVH_TRIANGLES_COPIED;
     bool keep_build_memory = false;
 
     /// Throw Error(AACBVH_ERROR_INVALID_ARGUMENT) for unknown keys, a key of the

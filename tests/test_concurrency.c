@@ -170,6 +170,11 @@ static void test_concurrent_queries_wide4(void **state) {
     check_concurrent_queries(AACBVH_LAYOUT_WIDE4);
 }
 
+static void test_concurrent_queries_wide8(void **state) {
+    (void)state;
+    check_concurrent_queries(AACBVH_LAYOUT_WIDE8);
+}
+
 /* A build's peak memory is its own, also while another application thread
  * builds on the same context and the two threads run each other's tasks:
  * the sweep builder allocates its sort keys inside forked tasks. */
@@ -301,6 +306,7 @@ int main(void) {
         cmocka_unit_test(test_concurrent_builds_on_one_context),
         cmocka_unit_test(test_concurrent_queries_binary),
         cmocka_unit_test(test_concurrent_queries_wide4),
+        cmocka_unit_test(test_concurrent_queries_wide8),
         cmocka_unit_test(test_errors_are_per_thread),
         cmocka_unit_test(test_peak_is_the_builds_own),
     };

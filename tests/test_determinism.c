@@ -216,6 +216,8 @@ static void test_layout_and_storage_variants_deterministic(void **state) {
         {"AAC-Fast, WIDE4", AACBVH_BUILDER_AAC_FAST, AACBVH_LAYOUT_WIDE4, AACBVH_TRIANGLES_REFERENCED, 0},
         {"AAC-Fast, COPIED", AACBVH_BUILDER_AAC_FAST, AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_COPIED, 0},
         {"AAC-Fast, WIDE4 and COPIED", AACBVH_BUILDER_AAC_FAST, AACBVH_LAYOUT_WIDE4, AACBVH_TRIANGLES_COPIED, 0},
+        {"AAC-Fast, WIDE8", AACBVH_BUILDER_AAC_FAST, AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_REFERENCED, 0},
+        {"AAC-Fast, WIDE8 and COPIED", AACBVH_BUILDER_AAC_FAST, AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED, 0},
     };
     ts_mesh mesh = {0};
     build_result *plain = (build_result *)calloc(1, sizeof *plain);

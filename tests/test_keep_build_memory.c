@@ -94,6 +94,7 @@ static void test_rebuilds_match_fresh_builds(void **state) {
         {AACBVH_BUILDER_AAC_FAST, AACBVH_LAYOUT_WIDE4, AACBVH_TRIANGLES_COPIED},
         {AACBVH_BUILDER_BINNED_SAH, AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_COPIED},
         {AACBVH_BUILDER_PLOC, AACBVH_LAYOUT_WIDE4, AACBVH_TRIANGLES_REFERENCED},
+        {AACBVH_BUILDER_AAC_HQ, AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED},
     };
     /* Sizes alternate so that kept blocks fit, fit loosely, or do not fit. */
     const size_t sizes[] = {60000, 60000, 20000, 90000, 61000, 60000};

@@ -68,6 +68,7 @@
     X(AACBVH_PARAM_TRAVERSAL_LAYOUT == 9)                            \
     X(AACBVH_LAYOUT_BINARY == 0)                                     \
     X(AACBVH_LAYOUT_WIDE4 == 1)                                      \
+    X(AACBVH_LAYOUT_WIDE8 == 2)                                      \
     X(sizeof(aacbvh_layout) == 4)                                    \
     X(AACBVH_PARAM_TRIANGLE_STORAGE == 10)                           \
     X(AACBVH_TRIANGLES_REFERENCED == 0)                              \

@@ -83,8 +83,8 @@ static void test_defaults(void **state) {
     assert_close(get_float(bvh, AACBVH_PARAM_INTERSECTION_COST), 1.0);
     assert_int_equal(get_int(bvh, AACBVH_PARAM_PLOC_RADIUS), 16);
     assert_int_equal(get_int(bvh, AACBVH_PARAM_SKIP_INVALID_PRIMITIVES), 0);
-    assert_int_equal(get_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT), AACBVH_LAYOUT_BINARY);
-    assert_int_equal(get_int(bvh, AACBVH_PARAM_TRIANGLE_STORAGE), AACBVH_TRIANGLES_REFERENCED);
+    assert_int_equal(get_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT), AACBVH_LAYOUT_WIDE8);
+    assert_int_equal(get_int(bvh, AACBVH_PARAM_TRIANGLE_STORAGE), AACBVH_TRIANGLES_COPIED);
     assert_int_equal(get_int(bvh, AACBVH_PARAM_KEEP_BUILD_MEMORY), 0);
 }
 
@@ -165,7 +165,7 @@ static void check_rejections(aacbvh_bvh *bvh) {
     expect_int_rejected(bvh, AACBVH_PARAM_PLOC_RADIUS, 1025);
     expect_int_rejected(bvh, AACBVH_PARAM_SKIP_INVALID_PRIMITIVES, 2);
     expect_int_rejected(bvh, AACBVH_PARAM_SKIP_INVALID_PRIMITIVES, -1);
-    expect_int_rejected(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, 2);
+    expect_int_rejected(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, 3);
     expect_int_rejected(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, -1);
     expect_int_rejected(bvh, AACBVH_PARAM_TRIANGLE_STORAGE, 2);
     expect_int_rejected(bvh, AACBVH_PARAM_TRIANGLE_STORAGE, -1);

@@ -41,7 +41,7 @@ static int teardown_group(void **state) {
     return 0;
 }
 
-static const aacbvh_layout k_layouts[] = {AACBVH_LAYOUT_BINARY, AACBVH_LAYOUT_WIDE4};
+static const aacbvh_layout k_layouts[] = {AACBVH_LAYOUT_BINARY, AACBVH_LAYOUT_WIDE4, AACBVH_LAYOUT_WIDE8};
 enum { LAYOUT_COUNT = sizeof k_layouts / sizeof k_layouts[0] };
 
 /* A BVH over `m` with the given layout (leaves of up to 2 triangles). */
@@ -384,7 +384,7 @@ static void test_box_entry_beyond_float(void **state) {
     (void)state;
     const float box[6] = {-4.0f, -4.0f, -0.5f, 4.0f, 4.0f, 0.5f};
     const aacbvh_ray ray = {{0.25f, -2.0f, -1.5f}, 0.0f, {0.0f, 0.0f, 1.1e-41f}, INFINITY};
-    for (int layout = AACBVH_LAYOUT_BINARY; layout <= AACBVH_LAYOUT_WIDE4; ++layout) {
+    for (int layout = AACBVH_LAYOUT_BINARY; layout <= AACBVH_LAYOUT_WIDE8; ++layout) {
         aacbvh_context *ctx;
         aacbvh_bvh *bvh;
         ts_create(1, &ctx, &bvh);
@@ -412,7 +412,7 @@ static void test_box_entry_before_float(void **state) {
     const float box[6] = {-4.0f, -4.0f, -0.5f, 4.0f, 4.0f, 0.5f};
     const aacbvh_ray inside = {{0.25f, -2.0f, 0.0f}, -INFINITY, {0.0f, 1e-40f, 0.0f}, INFINITY};
     const aacbvh_ray behind = {{0.25f, -2.0f, 3.0f}, -INFINITY, {0.0f, 0.0f, 1.1e-41f}, 0.0f};
-    for (int layout = AACBVH_LAYOUT_BINARY; layout <= AACBVH_LAYOUT_WIDE4; ++layout) {
+    for (int layout = AACBVH_LAYOUT_BINARY; layout <= AACBVH_LAYOUT_WIDE8; ++layout) {
         aacbvh_context *ctx;
         aacbvh_bvh *bvh;
         aacbvh_hit hit;
@@ -450,7 +450,7 @@ static void test_tiny_and_huge_directions(void **state) {
     const float scales[] = {1.4e-45f, 1e-44f, 1e-41f, 1e-40f, 1e-38f, 1e-30f, 1e-12f, 1.0f, 1e12f, 1e30f, 3e38f};
     const float shapes[][3] = {{1, 0, 0}, {1, 0.1f, 0}, {1, 0.1f, 0.2f}, {1, -0.3f, 0.05f}};
     for (int geometry = 0; geometry < 2; ++geometry)
-        for (int layout = AACBVH_LAYOUT_BINARY; layout <= AACBVH_LAYOUT_WIDE4; ++layout) {
+        for (int layout = AACBVH_LAYOUT_BINARY; layout <= AACBVH_LAYOUT_WIDE8; ++layout) {
             aacbvh_context *ctx;
             aacbvh_bvh *bvh;
             ts_create(1, &ctx, &bvh);
@@ -507,7 +507,7 @@ static void test_tiny_direction_denormal_windows(void **state) {
     (void)state;
     const float square[] = {-1.0f, -1.0f, 0.0f, 1.0f, -1.0f, 0.0f, 1.0f, 1.0f, 0.0f, -1.0f, 1.0f, 0.0f};
     const uint32_t indices[] = {0, 1, 2, 0, 2, 3};
-    for (int layout = AACBVH_LAYOUT_BINARY; layout <= AACBVH_LAYOUT_WIDE4; ++layout) {
+    for (int layout = AACBVH_LAYOUT_BINARY; layout <= AACBVH_LAYOUT_WIDE8; ++layout) {
         aacbvh_context *ctx;
         aacbvh_bvh *bvh;
         ts_create(1, &ctx, &bvh);

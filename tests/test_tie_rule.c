@@ -67,7 +67,7 @@ typedef struct variant {
 } variant;
 
 /* The default: what every other variant must answer like. */
-static const variant k_default = {"default", AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_REFERENCED, 1,
+static const variant k_default = {"binary", AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_REFERENCED, 1,
                                   AACBVH_BUILDER_AAC_HQ, 4};
 
 static const variant k_variants[] = {
@@ -81,6 +81,11 @@ static const variant k_variants[] = {
     {"aac-fast wide4 leaf 1", AACBVH_LAYOUT_WIDE4, AACBVH_TRIANGLES_REFERENCED, 2, AACBVH_BUILDER_AAC_FAST, 1},
     {"binned-sah leaf 8", AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_COPIED, 3, AACBVH_BUILDER_BINNED_SAH, 8},
     {"ploc wide4 leaf 2", AACBVH_LAYOUT_WIDE4, AACBVH_TRIANGLES_REFERENCED, 1, AACBVH_BUILDER_PLOC, 2},
+    {"wide8", AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_REFERENCED, 1, AACBVH_BUILDER_AAC_HQ, 4},
+    {"wide8 copied", AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED, 1, AACBVH_BUILDER_AAC_HQ, 4},
+    {"wide8 copied 3 threads", AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED, 3, AACBVH_BUILDER_AAC_HQ, 4},
+    {"aac-fast wide8 copied leaf 1", AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED, 2, AACBVH_BUILDER_AAC_FAST, 1},
+    {"binned-sah wide8 copied leaf 8", AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED, 1, AACBVH_BUILDER_BINNED_SAH, 8},
 };
 enum { VARIANT_COUNT = sizeof k_variants / sizeof k_variants[0] };
 
@@ -315,11 +320,11 @@ static void test_window_shrunk_to_the_hit(void **state) {
         aacbvh_ray *rays;
         assert_true(ts_make_scene(kinds[s], kTriangles, 20 + s, &mesh));
         rays = tie_rays(&mesh, 30 + s);
-        for (l = 0; l < 2; ++l) {
+        for (l = 0; l < 3; ++l) {
             variant v = k_default;
             char what[96];
             aacbvh_bvh *bvh;
-            v.layout = l ? AACBVH_LAYOUT_WIDE4 : AACBVH_LAYOUT_BINARY;
+            v.layout = (aacbvh_layout)l; /* binary, wide4, wide8 */
             bvh = build_variant(&v, &mesh);
             snprintf(what, sizeof what, "%s scene, layout %d", ts_scene_name(kinds[s]), (int)v.layout);
             check_windows(bvh, rays, 3 * kRays, what);

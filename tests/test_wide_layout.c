@@ -36,10 +36,26 @@ static int teardown_group(void **state) {
     return 0;
 }
 
-static void set_builder(aacbvh_bvh *bvh, aacbvh_builder builder, uint32_t leaf, aacbvh_layout layout) {
+/* The wide layouts compared with the binary one (which reads the caller's
+ * triangles), each with both triangle storages. */
+typedef struct {
+    aacbvh_layout layout;
+    aacbvh_triangle_storage storage;
+} wide_variant;
+static const wide_variant kWide[] = {
+    {AACBVH_LAYOUT_WIDE4, AACBVH_TRIANGLES_REFERENCED},
+    {AACBVH_LAYOUT_WIDE4, AACBVH_TRIANGLES_COPIED},
+    {AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_REFERENCED},
+    {AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED},
+};
+enum { kWideCount = sizeof kWide / sizeof kWide[0] };
+
+static void set_builder(aacbvh_bvh *bvh, aacbvh_builder builder, uint32_t leaf, aacbvh_layout layout,
+                        aacbvh_triangle_storage storage) {
     TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, builder), AACBVH_OK);
     TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_MAX_LEAF_SIZE, leaf), AACBVH_OK);
     TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, layout), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRIANGLE_STORAGE, storage), AACBVH_OK);
 }
 
 static const aacbvh_builder kBuilders[] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_AAC_FAST,
@@ -51,11 +67,12 @@ enum { kRays = 3000 };
  * moves the vertices, refits and compares again. */
 /* must_hit: the rays must hit something (not for scenes of zero-area triangles). */
 static void check_mesh(ts_mesh *mesh, const char *name, uint64_t seed, int must_hit) {
-    size_t bi, li;
+    size_t bi, li, wi;
     const size_t coords = 3 * mesh->vertex_count;
     float *original = malloc((coords ? coords : 1) * sizeof *original);
     assert_non_null(original);
     memcpy(original, mesh->vertices, coords * sizeof *original);
+    for (wi = 0; wi < kWideCount; ++wi)
     for (bi = 0; bi < sizeof kBuilders / sizeof kBuilders[0]; ++bi)
         for (li = 0; li < sizeof kLeafSizes / sizeof kLeafSizes[0]; ++li) {
             aacbvh_bvh *binary, *wide;
@@ -65,8 +82,8 @@ static void check_mesh(ts_mesh *mesh, const char *name, uint64_t seed, int must_
             memcpy(mesh->vertices, original, coords * sizeof *original);
             TS_EXPECT_STATUS(aacbvh_bvh_create(g_ctx, &binary), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_create(g_ctx, &wide), AACBVH_OK);
-            set_builder(binary, kBuilders[bi], kLeafSizes[li], AACBVH_LAYOUT_BINARY);
-            set_builder(wide, kBuilders[bi], kLeafSizes[li], AACBVH_LAYOUT_WIDE4);
+            set_builder(binary, kBuilders[bi], kLeafSizes[li], AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_REFERENCED);
+            set_builder(wide, kBuilders[bi], kLeafSizes[li], kWide[wi].layout, kWide[wi].storage);
             ts_set_mesh(binary, mesh);
             ts_set_mesh(wide, mesh);
             TS_EXPECT_STATUS(aacbvh_bvh_build(binary), AACBVH_OK);
@@ -75,7 +92,8 @@ static void check_mesh(ts_mesh *mesh, const char *name, uint64_t seed, int must_
 
             rays = ts_make_rays(mesh->vertices, coords, kRays, seed + 17 * bi + li);
             assert_non_null(rays);
-            snprintf(what, sizeof what, "%s builder %d leaf %u", name, (int)kBuilders[bi], kLeafSizes[li]);
+            snprintf(what, sizeof what, "%s layout %d storage %d builder %d leaf %u", name, (int)kWide[wi].layout,
+                     (int)kWide[wi].storage, (int)kBuilders[bi], kLeafSizes[li]);
             hits = ts_compare_answers(binary, wide, rays, kRays, what);
             if (must_hit && hits == 0) fail_msg("%s: no ray hits anything", what);
             free(rays);
@@ -86,8 +104,8 @@ static void check_mesh(ts_mesh *mesh, const char *name, uint64_t seed, int must_
             TS_EXPECT_STATUS(aacbvh_bvh_refit(wide), AACBVH_OK);
             rays = ts_make_rays(mesh->vertices, coords, kRays, seed + 1000 + 17 * bi + li);
             assert_non_null(rays);
-            snprintf(what, sizeof what, "%s (refitted) builder %d leaf %u", name, (int)kBuilders[bi],
-                     kLeafSizes[li]);
+            snprintf(what, sizeof what, "%s (refitted) layout %d storage %d builder %d leaf %u", name,
+                     (int)kWide[wi].layout, (int)kWide[wi].storage, (int)kBuilders[bi], kLeafSizes[li]);
             ts_compare_answers(binary, wide, rays, kRays, what);
             free(rays);
 
@@ -158,9 +176,10 @@ static void test_single_triangle(void **state) {
 }
 
 static void test_boxes(void **state) {
-    size_t bi, li, i;
+    size_t bi, li, i, wi;
     const size_t count = 1500;
     (void)state;
+    for (wi = 0; wi < kWideCount; wi += 2) /* storage does not apply to boxes */
     for (bi = 0; bi < sizeof kBuilders / sizeof kBuilders[0]; ++bi)
         for (li = 0; li < sizeof kLeafSizes / sizeof kLeafSizes[0]; ++li) {
             float *boxes = ts_random_boxes(count, 0.2f, 41 + bi);
@@ -170,8 +189,8 @@ static void test_boxes(void **state) {
             assert_non_null(boxes);
             TS_EXPECT_STATUS(aacbvh_bvh_create(g_ctx, &binary), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_create(g_ctx, &wide), AACBVH_OK);
-            set_builder(binary, kBuilders[bi], kLeafSizes[li], AACBVH_LAYOUT_BINARY);
-            set_builder(wide, kBuilders[bi], kLeafSizes[li], AACBVH_LAYOUT_WIDE4);
+            set_builder(binary, kBuilders[bi], kLeafSizes[li], AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_REFERENCED);
+            set_builder(wide, kBuilders[bi], kLeafSizes[li], kWide[wi].layout, kWide[wi].storage);
             TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(binary, boxes, count, 24), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(wide, boxes, count, 24), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_build(binary), AACBVH_OK);
@@ -180,7 +199,8 @@ static void test_boxes(void **state) {
             /* Coordinates of box corners: rays start on and aim at faces. */
             rays = ts_make_rays(boxes, 6 * count, kRays, 51 + bi * 2 + li);
             assert_non_null(rays);
-            snprintf(what, sizeof what, "boxes builder %d leaf %u", (int)kBuilders[bi], kLeafSizes[li]);
+            snprintf(what, sizeof what, "boxes layout %d builder %d leaf %u", (int)kWide[wi].layout, (int)kBuilders[bi],
+                     kLeafSizes[li]);
             assert_true(ts_compare_answers(binary, wide, rays, kRays, what) > kRays / 10);
             free(rays);
 
@@ -212,11 +232,11 @@ static void test_layout_param(void **state) {
     (void)state;
     TS_EXPECT_STATUS(aacbvh_bvh_create(g_ctx, &bvh), AACBVH_OK);
     TS_EXPECT_STATUS(aacbvh_bvh_get_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, &value), AACBVH_OK);
-    assert_int_equal(value, AACBVH_LAYOUT_BINARY);
+    assert_int_equal(value, AACBVH_LAYOUT_WIDE8); /* the default since 1.2 */
     TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, AACBVH_LAYOUT_WIDE4), AACBVH_OK);
     TS_EXPECT_STATUS(aacbvh_bvh_get_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, &value), AACBVH_OK);
     assert_int_equal(value, AACBVH_LAYOUT_WIDE4);
-    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, 2),
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, 3),
                      AACBVH_ERROR_INVALID_ARGUMENT);
     TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, -1),
                      AACBVH_ERROR_INVALID_ARGUMENT);
@@ -242,6 +262,8 @@ static void test_layout_switch(void **state) {
     assert_true(ts_make_scene(TS_SCENE_RANDOM, 2000, 71, &mesh));
     TS_EXPECT_STATUS(aacbvh_bvh_create(g_ctx, &binary), AACBVH_OK);
     TS_EXPECT_STATUS(aacbvh_bvh_create(g_ctx, &bvh), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(binary, AACBVH_PARAM_TRAVERSAL_LAYOUT, AACBVH_LAYOUT_BINARY), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, AACBVH_LAYOUT_BINARY), AACBVH_OK);
     ts_set_mesh(binary, &mesh);
     ts_set_mesh(bvh, &mesh);
     TS_EXPECT_STATUS(aacbvh_bvh_build(binary), AACBVH_OK);

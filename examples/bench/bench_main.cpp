@@ -89,8 +89,8 @@ struct Options {
     bool embree = true;
     bool self_check = false;
     uint32_t max_leaf_size = 4;
-    int layout = AACBVH_LAYOUT_BINARY; ///< --layout: what aacbvh_bvh_intersect / occluded traverse
-    int triangles = AACBVH_TRIANGLES_REFERENCED; ///< --triangles: where the queries read triangles from
+    int layout = AACBVH_LAYOUT_WIDE8; ///< --layout: what aacbvh_bvh_intersect / occluded traverse (the library's default)
+    int triangles = AACBVH_TRIANGLES_COPIED; ///< --triangles: where the queries read triangles from (the default)
     int keep_build_memory = 0; ///< --keep-build-memory: rebuilds reuse the previous build's memory
     std::string csv, json, svg, markdown;
     std::string preview_dir;  ///< --preview DIR: a PGM image of the primary hits per scene
@@ -121,8 +121,10 @@ void usage(FILE *out) {
         "  --lo-max-triangles N  run locally-ordered only on scenes of at most N\n"
         "                    triangles (default 400000; 0 = no limit)\n"
         "  --no-embree       leave Embree out\n"
-        "  --layout L        traversal layout for the Mrays/s columns: binary (default) or wide4\n"
-        "  --triangles S     triangle storage for the Mrays/s columns: referenced (default) or copied\n"
+        "  --layout L        traversal layout for the Mrays/s columns: wide8 (the library's\n"
+        "                    default), wide4 or binary\n"
+        "  --triangles S     triangle storage for the Mrays/s columns: copied (the library's\n"
+        "                    default) or referenced\n"
         "  --keep-build-memory  set AACBVH_PARAM_KEEP_BUILD_MEMORY: each timed build after\n"
         "                    the first reuses the memory the previous one freed (per-frame\n"
         "                    rebuilds); Embree LOW / MEDIUM then rebuild into one RTCBVH\n"
@@ -226,6 +228,8 @@ bool parse_args(int argc, char **argv, Options &opt) {
                 opt.layout = AACBVH_LAYOUT_BINARY;
             else if (std::string(s) == "wide4")
                 opt.layout = AACBVH_LAYOUT_WIDE4;
+            else if (std::string(s) == "wide8")
+                opt.layout = AACBVH_LAYOUT_WIDE8;
             else
                 return false;
         } else if (a == "--keep-build-memory") {
@@ -613,7 +617,9 @@ bool run_benchmark(int argc, char **argv, const Options &opt, Checker &check, Ru
         info.command += (i ? " " : "") + a;
     }
     info.library_version = std::string(aacbvh_version_string()) +
-                           (opt.layout == AACBVH_LAYOUT_WIDE4 ? " (traversal layout wide4" : " (traversal layout binary") +
+                           (opt.layout == AACBVH_LAYOUT_WIDE8   ? " (traversal layout wide8"
+                            : opt.layout == AACBVH_LAYOUT_WIDE4 ? " (traversal layout wide4"
+                                                                : " (traversal layout binary") +
                            (opt.triangles == AACBVH_TRIANGLES_COPIED ? ", triangles copied" : ", triangles referenced") +
                            (opt.keep_build_memory ? ", build memory kept between builds)" : ")");
     info.embree_version = embree_compiled() ? embree_version() : "not compiled in";

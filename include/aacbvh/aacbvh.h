@@ -213,10 +213,11 @@ typedef enum aacbvh_param {
     AACBVH_PARAM_SKIP_INVALID_PRIMITIVES = 8,
     /** int, an aacbvh_layout: the structure ray queries traverse. The binary
      *  nodes of aacbvh_bvh_get_nodes() exist in every layout. Default
-     *  AACBVH_LAYOUT_BINARY. */
+     *  AACBVH_LAYOUT_WIDE8 (since 1.2; AACBVH_LAYOUT_BINARY before). */
     AACBVH_PARAM_TRAVERSAL_LAYOUT = 9,
     /** int, an aacbvh_triangle_storage: where ray queries read triangles
-     *  from. Default AACBVH_TRIANGLES_REFERENCED. */
+     *  from. Default AACBVH_TRIANGLES_COPIED (since 1.2;
+     *  AACBVH_TRIANGLES_REFERENCED before). */
     AACBVH_PARAM_TRIANGLE_STORAGE = 10,
     /** int 0 or 1: 1 keeps the large blocks a build frees (its scratch
      *  memory, the tree it replaces) with the handle and reuses them on the
@@ -237,6 +238,14 @@ typedef enum aacbvh_layout {
      *  boxes at a time with SIMD: faster rays, more memory (reported in
      *  aacbvh_stats.memory_bytes). Made by build and kept up to date by refit. */
     AACBVH_LAYOUT_WIDE4 = 1,
+    /** The default (since 1.2): an 8-wide tree collapsed from the binary one,
+     *  its eight child boxes tested at once with SIMD (SSE2, or AVX2 where
+     *  the CPU has it: chosen at run time, the answers are the same bit for
+     *  bit). With AACBVH_TRIANGLES_COPIED its leaves hold the triangles
+     *  themselves, four side by side, tested together; that copy replaces
+     *  the 36-byte-per-triangle one of the other layouts. Made by build and
+     *  kept up to date by refit; counted in aacbvh_stats.memory_bytes. */
+    AACBVH_LAYOUT_WIDE8 = 2,
     AACBVH_LAYOUT_MAX_ENUM = 0x7FFFFFFF
 } aacbvh_layout;
 

@@ -115,10 +115,12 @@ void WideBvh::build(const Bvh &bvh, Scheduler &scheduler) {
         }
     });
     Array<uint32_t>().swap(first_child);
-    sources.resize(4 * size_t(next));
-    sources.shrink_to_fit(); // a small copy: 16 bytes per wide node
+    // A copy of the used part (shrink_to_fit() would swallow an allocation
+    // failure and keep the whole array).
+    Array<uint32_t> used_sources(sources.begin(), sources.begin() + 4 * ptrdiff_t(next));
+    Array<uint32_t>().swap(sources); // a small copy: 16 bytes per wide node
     nodes_ = std::move(nodes);
-    sources_ = std::move(sources);
+    sources_ = std::move(used_sources);
     node_count_ = next;
     built_ = true;
 }

@@ -37,18 +37,24 @@ template <bool AnyHit> struct HitRecord {
         for (uint32_t i = first; i < end; ++i) {
             float t, hu, hv;
             if (!prims.intersect(i, tmin, tmax, t, hu, hv)) continue;
-            if (AnyHit) {
-                found = true;
-                return true;
-            }
-            const uint32_t id = prim_ids[i];
-            if (found && t == tmax && id > prim) continue; // the tie rule
-            found = true;
-            tmax = t;
-            u = hu;
-            v = hv;
-            prim = id;
+            if (offer(t, hu, hv, prim_ids[i])) return true;
         }
+        return false;
+    }
+
+    /// Takes a hit within [tmin, tmax] of primitive `id`: true when the
+    /// query is done (any hit). Of hits at the same t the smaller id stays.
+    bool offer(float t, float hu, float hv, uint32_t id) {
+        if (AnyHit) {
+            found = true;
+            return true;
+        }
+        if (found && t == tmax && id > prim) return false; // the tie rule
+        found = true;
+        tmax = t;
+        u = hu;
+        v = hv;
+        prim = id;
         return false;
     }
 

@@ -37,7 +37,10 @@ struct ScaledRay {
     int shift = 0;
 
     explicit ScaledRay(const aacbvh_ray &r) : ray(r) {
-        const float m = std::fmax(std::fabs(r.dir[0]), std::fmax(std::fabs(r.dir[1]), std::fabs(r.dir[2])));
+        // Comparisons, not std::fmax (a libm call per ray): the direction is
+        // finite here (ray_is_valid()).
+        const float ax = std::fabs(r.dir[0]), ay = std::fabs(r.dir[1]), az = std::fabs(r.dir[2]);
+        const float m = ax > ay ? (ax > az ? ax : az) : (ay > az ? ay : az);
         if (m >= 0x1p-32f && m <= 0x1p32f) return;
         int e;
         std::frexp(m, &e); // m = f 2^e, f in [0.5, 1)

@@ -1,0 +1,90 @@
+// The 8-wide traversal layout (AACBVH_LAYOUT_WIDE8, the default): a tree
+// collapsed from the finished binary Bvh whose nodes hold their eight
+// children's boxes as a structure of arrays, tested against one ray at once
+// (trace/wide8_traversal.h), and, for triangles stored in the BVH
+// (AACBVH_TRIANGLES_COPIED, the default), leaves made of triangle packets:
+// four triangles side by side, tested together.
+//
+// Collapsing: a wide node starts as its binary node's two children and
+// repeatedly opens the child of largest surface area (the one a random ray
+// is most likely to enter, the SAH's weight) until it has eight children or
+// only leaves. With packets, a binary subtree of at most kPacketLeaf
+// primitives becomes one leaf (one packet test instead of its inner nodes).
+// The binary tree stays: aacbvh_bvh_get_nodes() reports it and refit runs on
+// it, then copies its boxes here.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "bvh/bvh.h"
+#include "core/geometry.h"
+#include "core/memory.h"
+#include "core/scheduler.h"
+
+namespace aacbvh {
+
+/// One wide node, 256 bytes, 64-byte aligned (four cache lines):
+///   bytes   0..191 box[6][8]: child k's lo x, hi x, lo y, hi y, lo z, hi z in
+///                  box[0][k], box[1][k], ..., box[5][k];
+///   bytes 192..223 child[8]: inner child: its node index; leaf child: its
+///                  first packet (packet leaves) or first primitive slot;
+///   bytes 224..255 count[8]: 0 for an inner child, else the leaf's packet
+///                  count (packet leaves) or primitive count; an unused slot
+///                  has count 0, child kEmptyChild and an empty box (lo +inf,
+///                  hi -inf) that every ray misses.
+struct alignas(64) Wide8Node {
+    static constexpr uint32_t kEmptyChild = 0xFFFFFFFFu;
+    float box[6][8];
+    uint32_t child[8];
+    uint32_t count[8];
+};
+
+static_assert(sizeof(Wide8Node) == 256, "Wide8Node must be 256 bytes");
+
+/// Four triangles side by side: v[i][a][lane] is coordinate a of vertex i
+/// of the lane's triangle; prim[lane] the caller's primitive index. A leaf
+/// whose primitive count is not a multiple of four repeats its last
+/// triangle in the spare lanes (the same hit twice changes nothing).
+struct alignas(16) TrianglePacket {
+    float v[3][3][4];
+    uint32_t prim[4];
+};
+
+static_assert(sizeof(TrianglePacket) == 160, "TrianglePacket must be 160 bytes");
+
+class Wide8Bvh {
+public:
+    /// Subtrees of at most this many primitives become one packet leaf.
+    static constexpr uint32_t kPacketLeaf = 16;
+
+    bool built() const { return built_; }
+    bool has_packets() const { return packets_.size() > 0; }
+    size_t node_count() const { return node_count_; }
+    const Wide8Node *nodes() const { return nodes_.data(); }
+    const TrianglePacket *packets() const { return packets_.data(); }
+
+    /// Collapses `bvh` (which must outlive queries on this tree and keep its
+    /// topology). With `triangles` (triangle geometry whose indices were
+    /// checked by the build), leaves are packets copied from it; without,
+    /// leaves are the binary leaves' slot ranges. Replaces the previous tree
+    /// only on success; throws std::bad_alloc.
+    void build(const Bvh &bvh, const Geometry *triangles, Scheduler &scheduler);
+    /// After a refit of `bvh`: copies its boxes into the wide nodes and, with
+    /// packets, the triangles' new vertices from `geometry`. No allocation.
+    void refit(const Bvh &bvh, const Geometry &geometry, Scheduler &scheduler);
+    void clear();
+
+    size_t memory_bytes() const { return held_bytes(nodes_) + held_bytes(sources_) + held_bytes(packets_); }
+
+private:
+    Array<Wide8Node> nodes_;
+    /// For refit: the binary node behind each child slot (8 per wide node,
+    /// kEmptyChild for unused slots). Kept apart: traversal never reads it.
+    Array<uint32_t> sources_;
+    Array<TrianglePacket> packets_;
+    size_t node_count_ = 0;
+    bool built_ = false;
+};
+
+} // namespace aacbvh

@@ -1,0 +1,179 @@
+// The 8-wide traversal, included once by each kernel's file
+// (wide8_kernel_<isa>.cpp) inside that kernel's own namespace and target
+// region, after the file has defined its node and packet tests:
+//   struct NodeRay;     NodeRay make_node_ray(const BoxRay &);
+//   unsigned test_children(const Wide8Node &, const NodeRay &, float tmin,
+//                          float tmax, float t_entry[8]);
+//     bit k set when child k may be hit within [tmin, tmax] (the binary
+//     layout's conservative slab test, ray_box_conservative(), lane for
+//     lane), its clipped entry distance in t_entry[k];
+//   struct PacketRay;   PacketRay make_packet_ray(const TriangleRay &);
+//   unsigned filter_packet(const TrianglePacket &, const PacketRay &);
+//     bit k set unless the single-precision edge functions of
+//     intersect_triangle() prove that lane k misses (they are computed by
+//     the same operations, so the lanes it keeps are a superset of the hits).
+// The lanes a packet keeps are then tested by intersect_triangle() itself,
+// so every kernel reports exactly the hits of the binary traversal.
+// No lambdas here: a target region does not reach into them.
+
+/// A child (node index, or leaf: first packet or slot, and count) with its
+/// entry distance.
+struct Entry {
+    uint32_t child;
+    uint32_t count;
+    float t;
+};
+
+using EntryStack = SpillStack<Entry, 256>;
+
+/// A key whose unsigned order is the order of t (sign-magnitude flipped to
+/// two's complement), its low three bits cleared for the lane. Only the
+/// visiting order depends on it; pruning uses the exact t.
+inline uint32_t order_key8(float t) {
+    uint32_t u;
+    std::memcpy(&u, &t, sizeof u);
+    u ^= (u >> 31) != 0 ? 0xFFFFFFFFu : 0x80000000u;
+    return u & ~7u;
+}
+
+/// Asks for a pushed child's first cache lines (an inner node's boxes, or a
+/// packet leaf's first packet) ahead of its visit.
+inline void prefetch_child(const Wide8Node *nodes, const TrianglePacket *packets, uint32_t child, uint32_t count) {
+    const char *p = count == 0 ? reinterpret_cast<const char *>(nodes + child)
+                               : reinterpret_cast<const char *>(packets + child);
+    __builtin_prefetch(p);
+    __builtin_prefetch(p + 64);
+    __builtin_prefetch(p + 128);
+}
+
+/// Tests a packet leaf's lanes; true when the query is done (any hit).
+template <bool AnyHit>
+inline bool test_packets(const TrianglePacket *packets, uint32_t count, const TriangleRay &tray,
+                         const PacketRay &pray, float tmin, HitRecord<AnyHit> &best) {
+    for (uint32_t j = 0; j < count; ++j) {
+        const TrianglePacket &p = packets[j];
+        unsigned lanes = filter_packet(p, pray);
+        while (lanes != 0) {
+            const unsigned k = unsigned(__builtin_ctz(lanes));
+            lanes &= lanes - 1;
+            const float a[3] = {p.v[0][0][k], p.v[0][1][k], p.v[0][2][k]};
+            const float b[3] = {p.v[1][0][k], p.v[1][1][k], p.v[1][2][k]};
+            const float c[3] = {p.v[2][0][k], p.v[2][1][k], p.v[2][2][k]};
+            float t, u, v;
+            if (!intersect_triangle(tray, a, b, c, tmin, best.tmax, t, u, v)) continue;
+            if (best.offer(t, u, v, p.prim[k])) return true;
+        }
+    }
+    return false;
+}
+
+/// Leaf tests that no packet leaf calls (the slot adapter's stand-in).
+struct NoSlots {
+    bool intersect(uint32_t, float, float, float &, float &, float &) const { return false; }
+};
+
+/// Closest hit (AnyHit false) or any hit of a valid ray over a non-empty
+/// wide tree. Hit children are visited near to far: the nearest next, the
+/// others pushed farthest first, each skipped when popped beyond the closest
+/// hit (HitRecord::pop_next).
+template <bool AnyHit, bool Packets, class Slots>
+bool traverse(const Wide8Bvh &wide, const uint32_t *prim_ids, const Slots &slots, const NodeRay &nray,
+              const TriangleRay &tray, const PacketRay &pray, float tmin, float tmax, aacbvh_hit &hit) {
+    const Wide8Node *nodes = wide.nodes();
+    const TrianglePacket *packets = wide.packets();
+    HitRecord<AnyHit> best(tmax);
+    EntryStack stack;
+    Entry current{0u, 0u, tmin}; // the root, an inner node
+    for (;;) {
+        if (current.count == 0) {
+            const Wide8Node &node = nodes[current.child];
+            alignas(32) float t_entry[8];
+            unsigned mask = test_children(node, nray, tmin, best.tmax, t_entry);
+            if (mask != 0) {
+                const unsigned k0 = unsigned(__builtin_ctz(mask));
+                mask &= mask - 1;
+                if (mask == 0) { // one child: nothing to order or push
+                    current = Entry{node.child[k0], node.count[k0], t_entry[k0]};
+                    continue;
+                }
+                if (AnyHit) { // any hit ends the query: no ordering
+                    do {
+                        const unsigned k = unsigned(__builtin_ctz(mask));
+                        mask &= mask - 1;
+                        stack.push(Entry{node.child[k], node.count[k], t_entry[k]});
+                    } while (mask != 0);
+                    current = Entry{node.child[k0], node.count[k0], t_entry[k0]};
+                    continue;
+                }
+                // Insertion sort of (distance, lane) keys: few children are hit.
+                uint32_t key[8];
+                int n = 1;
+                key[0] = order_key8(t_entry[k0]) | k0;
+                do {
+                    const unsigned k = unsigned(__builtin_ctz(mask));
+                    mask &= mask - 1;
+                    const uint32_t kk = order_key8(t_entry[k]) | k;
+                    int i = n++;
+                    while (i > 0 && key[i - 1] > kk) {
+                        key[i] = key[i - 1];
+                        --i;
+                    }
+                    key[i] = kk;
+                } while (mask != 0);
+                for (int i = n; i-- > 1;) {
+                    const unsigned k = key[i] & 7u;
+                    stack.push(Entry{node.child[k], node.count[k], t_entry[k]});
+                    if (Packets || node.count[k] == 0) prefetch_child(nodes, packets, node.child[k], node.count[k]);
+                }
+                const unsigned k = key[0] & 7u;
+                current = Entry{node.child[k], node.count[k], t_entry[k]};
+                continue;
+            }
+        } else if (Packets ? test_packets<AnyHit>(packets + current.child, current.count, tray, pray, tmin, best)
+                           : best.test_leaf(slots, prim_ids, current.child, current.count, tmin)) {
+            break;
+        }
+        if (!best.pop_next(stack, current)) break;
+    }
+    if (!AnyHit) write_closest(best.found, best.tmax, best.u, best.v, best.prim, hit);
+    return best.found;
+}
+
+template <bool AnyHit>
+bool query(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray, aacbvh_hit &hit) {
+    if (wide.node_count() == 0 || geometry.kind == GeometryKind::None || !ray_is_valid(ray)) {
+        set_miss(hit);
+        return false;
+    }
+    const ScaledRay scaled(ray);
+    const aacbvh_ray &r = scaled.ray;
+    const BoxRay box_ray = make_box_ray(r.org, r.dir);
+    const NodeRay nray = make_node_ray(box_ray);
+    const uint32_t *prim_ids = bvh.prim_ids.data();
+    bool found;
+    if (geometry.kind == GeometryKind::Boxes) {
+        const TriangleRay unused{};
+        found = traverse<AnyHit, false>(wide, prim_ids, BoxPrimitives{geometry, prim_ids, box_ray}, nray, unused,
+                                        PacketRay{}, r.tmin, r.tmax, hit);
+    } else {
+        const TriangleRay tray = make_triangle_ray(r.org, r.dir);
+        if (wide.has_packets())
+            found = traverse<AnyHit, true>(wide, prim_ids, NoSlots{}, nray, tray, make_packet_ray(tray), r.tmin,
+                                           r.tmax, hit);
+        else
+            found = traverse<AnyHit, false>(wide, prim_ids, TrianglePrimitives{geometry, prim_ids, tray}, nray, tray,
+                                            PacketRay{}, r.tmin, r.tmax, hit);
+    }
+    if (!AnyHit) scaled.unscale(hit);
+    return found;
+}
+
+void intersect_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
+                     aacbvh_hit &hit) {
+    query<false>(wide, bvh, geometry, ray, hit);
+}
+
+bool occluded_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray) {
+    aacbvh_hit unused;
+    return query<true>(wide, bvh, geometry, ray, unused);
+}

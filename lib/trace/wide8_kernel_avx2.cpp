@@ -1,0 +1,86 @@
+// The 8-wide traversal's AVX2 kernel: a node's eight boxes in one 256-bit
+// register per slab. Compiled for AVX2 only inside the target region below
+// and called only on CPUs that have it (wide8_traversal.cpp); no FMA, so
+// every product and sum rounds as in the other kernels.
+#include <cstring>
+
+#include "trace/hit_record.h"
+#include "trace/ray_primitives.h"
+#include "trace/spill_stack.h"
+#include "trace/wide8_traversal.h"
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+
+#include "trace/wide8_packet_sse.h"
+
+// Everything defined from here to the end of the region is compiled for
+// AVX2; the headers above stay baseline code, so no out-of-line copy of a
+// shared inline function is ever AVX2 code.
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#endif
+
+namespace aacbvh {
+namespace wide8_avx2 {
+namespace {
+
+struct NodeRay {
+    long near[3], far[3]; ///< rows of Wide8Node::box (long: no extension per node)
+    __m256 org[3], inv[3];
+};
+
+inline NodeRay make_node_ray(const BoxRay &r) {
+    NodeRay w;
+    for (int a = 0; a < 3; ++a) {
+        w.near[a] = 2 * a + (r.neg[a] ? 1 : 0);
+        w.far[a] = 2 * a + (r.neg[a] ? 0 : 1);
+        w.org[a] = _mm256_set1_ps(r.org[a]);
+        w.inv[a] = _mm256_set1_ps(r.inv[a]);
+    }
+    return w;
+}
+
+inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float tmax, float t_entry[8]) {
+    const __m256 nx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.near[0]]), r.org[0]), r.inv[0]);
+    const __m256 ny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.near[1]]), r.org[1]), r.inv[1]);
+    const __m256 nz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.near[2]]), r.org[2]), r.inv[2]);
+    const __m256 fx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[0]]), r.org[0]), r.inv[0]);
+    const __m256 fy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[1]]), r.org[1]), r.inv[1]);
+    const __m256 fz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[2]]), r.org[2]), r.inv[2]);
+    // max / min return their second operand when the first is NaN, as the
+    // scalar "x > a ? x : a" keeps a.
+    __m256 a = _mm256_max_ps(nx, _mm256_set1_ps(tmin));
+    a = _mm256_max_ps(ny, a);
+    a = _mm256_max_ps(nz, a);
+    __m256 b = _mm256_min_ps(fx, _mm256_set1_ps(tmax));
+    b = _mm256_min_ps(fy, b);
+    b = _mm256_min_ps(fz, b);
+    const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+    b = _mm256_add_ps(b, _mm256_mul_ps(_mm256_and_ps(b, abs_mask), _mm256_set1_ps(kTwoGamma3)));
+    _mm256_store_ps(t_entry, a);
+    return unsigned(_mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OS)));
+}
+
+using PacketRay = PacketRaySse;
+inline PacketRay make_packet_ray(const TriangleRay &t) { return make_packet_ray_sse(t); }
+inline unsigned filter_packet(const TrianglePacket &p, const PacketRay &r) { return filter_packet_sse(p, r); }
+
+#include "trace/wide8_kernel.inl"
+
+} // namespace
+} // namespace wide8_avx2
+
+extern const Wide8Kernel kWide8Avx2 = {wide8_avx2::intersect_entry, wide8_avx2::occluded_entry};
+
+} // namespace aacbvh
+
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+#endif

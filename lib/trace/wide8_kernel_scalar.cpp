@@ -1,0 +1,94 @@
+// The 8-wide traversal's plain C++ kernel: loops over lanes doing, lane by
+// lane, the operations of the SIMD kernels. Builds with any compiler; the
+// reference the other kernels are tested against.
+#include <cstring>
+
+#include "trace/hit_record.h"
+#include "trace/ray_primitives.h"
+#include "trace/spill_stack.h"
+#include "trace/wide8_traversal.h"
+
+namespace aacbvh {
+namespace wide8_scalar {
+namespace {
+
+struct NodeRay {
+    long near[3], far[3]; ///< rows of Wide8Node::box (long: no extension per node)
+    float org[3], inv[3];
+};
+
+inline NodeRay make_node_ray(const BoxRay &r) {
+    NodeRay w;
+    for (int a = 0; a < 3; ++a) {
+        w.near[a] = 2 * a + (r.neg[a] ? 1 : 0);
+        w.far[a] = 2 * a + (r.neg[a] ? 0 : 1);
+        w.org[a] = r.org[a];
+        w.inv[a] = r.inv[a];
+    }
+    return w;
+}
+
+inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float tmax, float t_entry[8]) {
+    unsigned mask = 0;
+    for (int k = 0; k < 8; ++k) {
+        float a = tmin, b = tmax;
+        for (int ax = 0; ax < 3; ++ax) {
+            const float n = (node.box[r.near[ax]][k] - r.org[ax]) * r.inv[ax];
+            const float f = (node.box[r.far[ax]][k] - r.org[ax]) * r.inv[ax];
+            a = n > a ? n : a;
+            b = f < b ? f : b;
+        }
+        b += std::fabs(b) * kTwoGamma3;
+        t_entry[k] = a;
+        if (a <= b) mask |= 1u << k;
+    }
+    return mask;
+}
+
+struct PacketRay {
+    int kx = 0, ky = 0, kz = 0;
+    float org[3] = {0.0f, 0.0f, 0.0f};
+    float sx = 0.0f, sy = 0.0f;
+};
+
+inline PacketRay make_packet_ray(const TriangleRay &t) {
+    PacketRay p;
+    p.kx = t.kx;
+    p.ky = t.ky;
+    p.kz = t.kz;
+    for (int a = 0; a < 3; ++a) p.org[a] = t.org[a];
+    p.sx = t.sx;
+    p.sy = t.sy;
+    return p;
+}
+
+inline unsigned filter_packet(const TrianglePacket &p, const PacketRay &r) {
+    unsigned keep = 0;
+    for (int k = 0; k < 4; ++k) {
+        const float az = p.v[0][r.kz][k] - r.org[r.kz];
+        const float bz = p.v[1][r.kz][k] - r.org[r.kz];
+        const float cz = p.v[2][r.kz][k] - r.org[r.kz];
+        const float ax = (p.v[0][r.kx][k] - r.org[r.kx]) - r.sx * az;
+        const float ay = (p.v[0][r.ky][k] - r.org[r.ky]) - r.sy * az;
+        const float bx = (p.v[1][r.kx][k] - r.org[r.kx]) - r.sx * bz;
+        const float by = (p.v[1][r.ky][k] - r.org[r.ky]) - r.sy * bz;
+        const float cx = (p.v[2][r.kx][k] - r.org[r.kx]) - r.sx * cz;
+        const float cy = (p.v[2][r.ky][k] - r.org[r.ky]) - r.sy * cz;
+        const float eu = cx * by - cy * bx;
+        const float ev = ax * cy - ay * cx;
+        const float ew = bx * ay - by * ax;
+        const bool mixed = (eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f);
+        const bool ordered = !std::isnan(eu) && !std::isnan(ev) && !std::isnan(ew);
+        if (!(mixed && ordered)) keep |= 1u << k;
+    }
+    return keep;
+}
+
+#include "trace/wide8_kernel.inl"
+
+} // namespace
+} // namespace wide8_scalar
+
+extern const Wide8Kernel kWide8Scalar = {wide8_scalar::intersect_entry, wide8_scalar::occluded_entry};
+
+} // namespace aacbvh

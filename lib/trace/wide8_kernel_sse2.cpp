@@ -1,0 +1,74 @@
+// The 8-wide traversal's SSE2 kernel (the x86-64 baseline): a node's eight
+// boxes as two groups of four lanes, a packet's four triangles in one
+// register per coordinate. Same operations, same order as the plain C++
+// kernel (wide8_kernel_scalar.cpp), hence the same answers.
+#include <cstring>
+
+#include "trace/hit_record.h"
+#include "trace/ray_primitives.h"
+#include "trace/spill_stack.h"
+#include "trace/wide8_traversal.h"
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+
+#include "trace/wide8_packet_sse.h"
+
+namespace aacbvh {
+namespace wide8_sse2 {
+namespace {
+
+struct NodeRay {
+    long near[3], far[3]; ///< rows of Wide8Node::box (long: no extension per node)
+    __m128 org[3], inv[3];
+};
+
+inline NodeRay make_node_ray(const BoxRay &r) {
+    NodeRay w;
+    for (int a = 0; a < 3; ++a) {
+        w.near[a] = 2 * a + (r.neg[a] ? 1 : 0);
+        w.far[a] = 2 * a + (r.neg[a] ? 0 : 1);
+        w.org[a] = _mm_set1_ps(r.org[a]);
+        w.inv[a] = _mm_set1_ps(r.inv[a]);
+    }
+    return w;
+}
+
+/// Lanes [h, h + 4) of the node test (see wide_traversal.cpp's four-box test).
+inline unsigned test_four(const Wide8Node &node, const NodeRay &r, int h, __m128 tmin, __m128 tmax, float *t_entry) {
+    const __m128 nx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.near[0]] + h), r.org[0]), r.inv[0]);
+    const __m128 ny = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.near[1]] + h), r.org[1]), r.inv[1]);
+    const __m128 nz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.near[2]] + h), r.org[2]), r.inv[2]);
+    const __m128 fx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.far[0]] + h), r.org[0]), r.inv[0]);
+    const __m128 fy = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.far[1]] + h), r.org[1]), r.inv[1]);
+    const __m128 fz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.far[2]] + h), r.org[2]), r.inv[2]);
+    __m128 a = _mm_max_ps(nx, tmin);
+    a = _mm_max_ps(ny, a);
+    a = _mm_max_ps(nz, a);
+    __m128 b = _mm_min_ps(fx, tmax);
+    b = _mm_min_ps(fy, b);
+    b = _mm_min_ps(fz, b);
+    const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7FFFFFFF));
+    b = _mm_add_ps(b, _mm_mul_ps(_mm_and_ps(b, abs_mask), _mm_set1_ps(kTwoGamma3)));
+    _mm_store_ps(t_entry + h, a);
+    return unsigned(_mm_movemask_ps(_mm_cmple_ps(a, b)));
+}
+
+inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float tmax, float t_entry[8]) {
+    const __m128 lo = _mm_set1_ps(tmin), hi = _mm_set1_ps(tmax);
+    return test_four(node, r, 0, lo, hi, t_entry) | (test_four(node, r, 4, lo, hi, t_entry) << 4);
+}
+
+using PacketRay = PacketRaySse;
+inline PacketRay make_packet_ray(const TriangleRay &t) { return make_packet_ray_sse(t); }
+inline unsigned filter_packet(const TrianglePacket &p, const PacketRay &r) { return filter_packet_sse(p, r); }
+
+#include "trace/wide8_kernel.inl"
+
+} // namespace
+} // namespace wide8_sse2
+
+extern const Wide8Kernel kWide8Sse2 = {wide8_sse2::intersect_entry, wide8_sse2::occluded_entry};
+
+} // namespace aacbvh
+#endif

@@ -1,0 +1,91 @@
+// Picks the 8-wide traversal's kernel once from the CPU and forwards to it.
+#include "trace/wide8_traversal.h"
+
+#include <atomic>
+
+namespace aacbvh {
+
+extern const Wide8Kernel kWide8Scalar;
+#if defined(__SSE2__)
+extern const Wide8Kernel kWide8Sse2;
+#endif
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define AACBVH_HAVE_AVX2_KERNEL 1
+extern const Wide8Kernel kWide8Avx2;
+#endif
+
+namespace {
+
+TraceKernel best_kernel() {
+#if AACBVH_HAVE_AVX2_KERNEL
+    if (__builtin_cpu_supports("avx2")) return TraceKernel::Avx2;
+#endif
+#if defined(__SSE2__)
+    return TraceKernel::Sse2;
+#else
+    return TraceKernel::Scalar;
+#endif
+}
+
+const Wide8Kernel &kernel_table(TraceKernel k) {
+    switch (k) {
+#if AACBVH_HAVE_AVX2_KERNEL
+    case TraceKernel::Avx2: return kWide8Avx2;
+#endif
+#if defined(__SSE2__)
+    case TraceKernel::Sse2: return kWide8Sse2;
+#endif
+    default: return kWide8Scalar;
+    }
+}
+
+std::atomic<TraceKernel> &current_kernel() {
+    static std::atomic<TraceKernel> k{best_kernel()};
+    return k;
+}
+
+} // namespace
+
+TraceKernel trace_kernel() { return current_kernel().load(std::memory_order_relaxed); }
+
+bool trace_kernel_available(TraceKernel kernel) {
+    switch (kernel) {
+    case TraceKernel::Scalar: return true;
+    case TraceKernel::Sse2:
+#if defined(__SSE2__)
+        return true;
+#else
+        return false;
+#endif
+    case TraceKernel::Avx2: return best_kernel() == TraceKernel::Avx2;
+    }
+    return false;
+}
+
+bool set_trace_kernel(TraceKernel kernel) {
+    if (!trace_kernel_available(kernel)) return false;
+    current_kernel().store(kernel, std::memory_order_relaxed);
+    return true;
+}
+
+const char *trace_kernel_name(TraceKernel kernel) {
+    switch (kernel) {
+    case TraceKernel::Scalar: return "scalar";
+    case TraceKernel::Sse2: return "sse2";
+    case TraceKernel::Avx2: return "avx2";
+    }
+    return "unknown";
+}
+
+const Wide8Kernel &wide8_kernel() { return kernel_table(trace_kernel()); }
+
+void intersect_ray_wide8(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
+                         aacbvh_hit &hit) {
+    kernel_table(trace_kernel()).intersect(wide, bvh, geometry, ray, hit);
+}
+
+bool occluded_ray_wide8(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray) {
+    return kernel_table(trace_kernel()).occluded(wide, bvh, geometry, ray);
+}
+
+} // namespace aacbvh

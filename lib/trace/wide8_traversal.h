@@ -1,0 +1,44 @@
+// Ray queries over the 8-wide layout (bvh/wide8_bvh.h), with kernels chosen
+// at run time from the CPU: a plain C++ one that builds anywhere, SSE2 (the
+// x86-64 baseline) and AVX2. Every kernel does the same floating-point
+// operations in the same order, so all give the same hits bit for bit; the
+// tests force each in turn (set_trace_kernel) on any host that can run it.
+#pragma once
+
+#include "aacbvh/aacbvh.h"
+#include "bvh/bvh.h"
+#include "bvh/wide8_bvh.h"
+#include "core/geometry.h"
+
+namespace aacbvh {
+
+enum class TraceKernel { Scalar, Sse2, Avx2 };
+
+/// The kernel in use: the best this build and CPU can run, unless a test
+/// forced another.
+TraceKernel trace_kernel();
+/// Whether this build and CPU can run `kernel`.
+bool trace_kernel_available(TraceKernel kernel);
+/// Makes `kernel` the one in use; false (nothing changes) if it is not
+/// available. For tests and benchmarks: not thread-safe, never during queries.
+bool set_trace_kernel(TraceKernel kernel);
+const char *trace_kernel_name(TraceKernel kernel);
+
+/// Closest hit of one ray (same t, u, v and prim_id as intersect_ray() on the
+/// binary tree). `triangles`: the caller's geometry (packet leaves read their
+/// own copy; slot leaves read the geometry through bvh.prim_ids).
+void intersect_ray_wide8(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
+                         aacbvh_hit &hit);
+/// Any hit of one ray (same answer as occluded_ray()).
+bool occluded_ray_wide8(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray);
+
+/// One kernel's entry points (each kernel's file defines one).
+struct Wide8Kernel {
+    void (*intersect)(const Wide8Bvh &, const Bvh &, const Geometry &, const aacbvh_ray &, aacbvh_hit &);
+    bool (*occluded)(const Wide8Bvh &, const Bvh &, const Geometry &, const aacbvh_ray &);
+};
+
+/// The kernel in use, for a batch of queries (looked up once).
+const Wide8Kernel &wide8_kernel();
+
+} // namespace aacbvh
