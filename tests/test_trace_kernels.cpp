@@ -1,0 +1,145 @@
+// The 8-wide traversal's kernels (lib/trace/wide8_traversal.h): plain C++,
+// SSE2 and AVX2, each forced in turn on every kernel this CPU can run, must
+// answer every ray bit for bit like the binary traversal reading the
+// caller's triangles: every generated scene kind (coplanar stacks, zero-area
+// and wide-range triangles included), a watertight grid moved 1e5 away from
+// the origin, boxes, and tests/test_support's rays (axis-parallel
+// directions, origins on planes, odd windows, invalid rays), with packet
+// leaves (copied triangles) and slot leaves (referenced), 1 and 2 threads.
+// Linked statically (see CMakeLists.txt) so it can switch the kernel.
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+extern "C" {
+#include <cmocka.h>
+}
+
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
+
+#include "aacbvh/aacbvh.h"
+#include "test_support.h"
+#include "trace/wide8_traversal.h"
+
+namespace {
+
+constexpr size_t kRays = 3000;
+const aacbvh::TraceKernel kKernels[] = {aacbvh::TraceKernel::Scalar, aacbvh::TraceKernel::Sse2,
+                                        aacbvh::TraceKernel::Avx2};
+
+aacbvh_bvh *make(aacbvh_context *ctx, aacbvh_layout layout, aacbvh_triangle_storage storage, aacbvh_builder builder) {
+    aacbvh_bvh *bvh = nullptr;
+    TS_EXPECT_STATUS(aacbvh_bvh_create(ctx, &bvh), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, layout), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRIANGLE_STORAGE, storage), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, builder), AACBVH_OK);
+    return bvh;
+}
+
+/// Every available kernel against the binary reference on the same rays.
+/// Returns how many kernels ran.
+int compare_kernels(const aacbvh_bvh *reference, const aacbvh_bvh *wide, const aacbvh_ray *rays, size_t count,
+                    const char *what) {
+    const aacbvh::TraceKernel original = aacbvh::trace_kernel();
+    int ran = 0;
+    for (aacbvh::TraceKernel k : kKernels) {
+        if (!aacbvh::set_trace_kernel(k)) continue;
+        char label[256];
+        std::snprintf(label, sizeof label, "%s, kernel %s", what, aacbvh::trace_kernel_name(k));
+        ts_compare_answers(reference, wide, rays, count, label);
+        ++ran;
+    }
+    assert_true(aacbvh::set_trace_kernel(original));
+    return ran;
+}
+
+void check_mesh(const ts_mesh &mesh, const char *name, uint64_t seed) {
+    for (uint32_t threads : {1u, 2u}) {
+        aacbvh_context *ctx = nullptr;
+        TS_EXPECT_STATUS(aacbvh_context_create(threads, &ctx), AACBVH_OK);
+        aacbvh_bvh *ref = make(ctx, AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_REFERENCED, AACBVH_BUILDER_AAC_HQ);
+        aacbvh_bvh *packets = make(ctx, AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED, AACBVH_BUILDER_AAC_HQ);
+        aacbvh_bvh *slots = make(ctx, AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_REFERENCED, AACBVH_BUILDER_BINNED_SAH);
+        aacbvh_bvh *slots_ref = make(ctx, AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_REFERENCED, AACBVH_BUILDER_BINNED_SAH);
+        for (aacbvh_bvh *b : {ref, packets, slots, slots_ref}) {
+            ts_set_mesh(b, &mesh);
+            TS_EXPECT_STATUS(aacbvh_bvh_build(b), AACBVH_OK);
+        }
+        aacbvh_ray *rays = ts_make_rays(mesh.vertices, 3 * mesh.vertex_count, kRays, seed + threads);
+        assert_non_null(rays);
+        char what[160];
+        std::snprintf(what, sizeof what, "%s, packets, %u threads", name, threads);
+        assert_true(compare_kernels(ref, packets, rays, kRays, what) >= 1);
+        std::snprintf(what, sizeof what, "%s, slots, %u threads", name, threads);
+        compare_kernels(slots_ref, slots, rays, kRays, what);
+        std::free(rays);
+        for (aacbvh_bvh *b : {ref, packets, slots, slots_ref}) aacbvh_bvh_destroy(b);
+        aacbvh_context_destroy(ctx);
+    }
+}
+
+void test_kernels_available(void **) {
+    // The plain kernel builds everywhere; SSE2 is the x86-64 baseline.
+    assert_true(aacbvh::trace_kernel_available(aacbvh::TraceKernel::Scalar));
+#if defined(__x86_64__)
+    assert_true(aacbvh::trace_kernel_available(aacbvh::TraceKernel::Sse2));
+#endif
+    assert_true(aacbvh::trace_kernel_available(aacbvh::trace_kernel()));
+    std::printf("kernels on this CPU:");
+    for (aacbvh::TraceKernel k : kKernels)
+        if (aacbvh::trace_kernel_available(k)) std::printf(" %s", aacbvh::trace_kernel_name(k));
+    std::printf(" (in use: %s)\n", aacbvh::trace_kernel_name(aacbvh::trace_kernel()));
+}
+
+void test_every_scene_kind(void **) {
+    for (int kind = 0; kind < TS_SCENE_KIND_COUNT; ++kind) {
+        ts_mesh mesh;
+        assert_true(ts_make_scene(ts_scene_kind(kind), 1500, 300 + kind, &mesh));
+        check_mesh(mesh, ts_scene_name(ts_scene_kind(kind)), 400 + 10 * kind);
+        ts_mesh_free(&mesh);
+    }
+}
+
+void test_far_watertight_grid(void **) {
+    ts_mesh mesh;
+    assert_true(ts_make_scene(TS_SCENE_GRID, 4000, 17, &mesh));
+    for (size_t i = 0; i < 3 * mesh.vertex_count; ++i) mesh.vertices[i] += 1e5f;
+    check_mesh(mesh, "grid at 1e5", 18);
+    ts_mesh_free(&mesh);
+}
+
+void test_boxes(void **) {
+    const size_t count = 2000;
+    float *boxes = ts_random_boxes(count, 0.2f, 23);
+    assert_non_null(boxes);
+    aacbvh_context *ctx = nullptr;
+    TS_EXPECT_STATUS(aacbvh_context_create(1, &ctx), AACBVH_OK);
+    aacbvh_bvh *ref = make(ctx, AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_REFERENCED, AACBVH_BUILDER_AAC_HQ);
+    aacbvh_bvh *wide = make(ctx, AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED, AACBVH_BUILDER_AAC_HQ);
+    for (aacbvh_bvh *b : {ref, wide}) {
+        TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(b, boxes, count, 24), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_build(b), AACBVH_OK);
+    }
+    aacbvh_ray *rays = ts_make_rays(boxes, 6 * count, kRays, 24);
+    assert_non_null(rays);
+    compare_kernels(ref, wide, rays, kRays, "boxes");
+    std::free(rays);
+    aacbvh_bvh_destroy(ref);
+    aacbvh_bvh_destroy(wide);
+    aacbvh_context_destroy(ctx);
+    std::free(boxes);
+}
+
+} // namespace
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_kernels_available),
+        cmocka_unit_test(test_every_scene_kind),
+        cmocka_unit_test(test_far_watertight_grid),
+        cmocka_unit_test(test_boxes),
+    };
+    return cmocka_run_group_tests(tests, nullptr, nullptr);
+}
