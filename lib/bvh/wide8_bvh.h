@@ -53,6 +53,12 @@ struct alignas(16) TrianglePacket {
 
 static_assert(sizeof(TrianglePacket) == 160, "TrianglePacket must be 160 bytes");
 
+/// A packet test's single-precision edge functions per lane (see
+/// intersect_triangle_edges() in trace/triangle_intersect.h).
+struct alignas(16) PacketEdges {
+    float eu[4], ev[4], ew[4], mag[4];
+};
+
 class Wide8Bvh {
 public:
     /// Subtrees of at most this many primitives become one packet leaf.

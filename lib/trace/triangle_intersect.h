@@ -218,4 +218,29 @@ inline bool intersect_triangle(const TriangleRay &r, const float *p0, const floa
     return true;
 }
 
+/// intersect_triangle() for a caller that has already computed the
+/// single-precision edge functions eu, ev, ew and mag (the sum of the
+/// products' magnitudes, |cx by| + |ax cy| + |bx ay|) by the same operations
+/// in the same order, e.g. for four triangles at once with SIMD: the same
+/// result, without computing them again. The rare cases (values out of
+/// float range, det overflowing) go to intersect_triangle() itself.
+inline bool intersect_triangle_edges(const TriangleRay &r, const float *p0, const float *p1, const float *p2,
+                                     float eu, float ev, float ew, float mag, float tmin, float tmax, float &t,
+                                     float &u, float &v) {
+    const float mu = std::fabs(eu), mv = std::fabs(ev), mw = std::fabs(ew);
+    const bool in_range = mu >= FLT_MIN && mv >= FLT_MIN && mw >= FLT_MIN &&
+                          mu <= FLT_MAX && mv <= FLT_MAX && mw <= FLT_MAX;
+    if (!in_range) return intersect_triangle(r, p0, p1, p2, tmin, tmax, t, u, v);
+    if ((eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f))
+        return false;
+    const float det = eu + ev + ew;
+    if (mu + mv + mw <= 0x1p-18f * mag && !has_area(p0, p1, p2)) return false;
+    if (!std::isfinite(det)) return intersect_triangle(r, p0, p1, p2, tmin, tmax, t, u, v);
+    if (!reported_distance(r, p0, p1, p2, tmin, tmax, t)) return false;
+    const float inv_det = 1.0f / det;
+    u = ev * inv_det;
+    v = ew * inv_det;
+    return true;
+}
+
 } // namespace aacbvh

@@ -8,12 +8,14 @@
 //     layout's conservative slab test, ray_box_conservative(), lane for
 //     lane), its clipped entry distance in t_entry[k];
 //   struct PacketRay;   PacketRay make_packet_ray(const TriangleRay &);
-//   unsigned filter_packet(const TrianglePacket &, const PacketRay &);
+//   unsigned filter_packet(const TrianglePacket &, const PacketRay &, PacketEdges &);
 //     bit k set unless the single-precision edge functions of
 //     intersect_triangle() prove that lane k misses (they are computed by
-//     the same operations, so the lanes it keeps are a superset of the hits).
-// The lanes a packet keeps are then tested by intersect_triangle() itself,
-// so every kernel reports exactly the hits of the binary traversal.
+//     the same operations, so the lanes it keeps are a superset of the
+//     hits); the kept lanes' edge functions are stored in the PacketEdges.
+// The lanes a packet keeps are then finished by intersect_triangle_edges(),
+// which decides as intersect_triangle() would on the same values, so every
+// kernel reports exactly the hits of the binary traversal.
 // No lambdas here: a target region does not reach into them.
 
 /// A child (node index, or leaf: first packet or slot, and count) with its
@@ -52,7 +54,8 @@ inline bool test_packets(const TrianglePacket *packets, uint32_t count, const Tr
                          const PacketRay &pray, float tmin, HitRecord<AnyHit> &best) {
     for (uint32_t j = 0; j < count; ++j) {
         const TrianglePacket &p = packets[j];
-        unsigned lanes = filter_packet(p, pray);
+        PacketEdges e;
+        unsigned lanes = filter_packet(p, pray, e);
         while (lanes != 0) {
             const unsigned k = unsigned(__builtin_ctz(lanes));
             lanes &= lanes - 1;
@@ -60,7 +63,8 @@ inline bool test_packets(const TrianglePacket *packets, uint32_t count, const Tr
             const float b[3] = {p.v[1][0][k], p.v[1][1][k], p.v[1][2][k]};
             const float c[3] = {p.v[2][0][k], p.v[2][1][k], p.v[2][2][k]};
             float t, u, v;
-            if (!intersect_triangle(tray, a, b, c, tmin, best.tmax, t, u, v)) continue;
+            if (!intersect_triangle_edges(tray, a, b, c, e.eu[k], e.ev[k], e.ew[k], e.mag[k], tmin, best.tmax, t, u, v))
+                continue;
             if (best.offer(t, u, v, p.prim[k])) return true;
         }
     }
@@ -105,7 +109,16 @@ bool traverse(const Wide8Bvh &wide, const uint32_t *prim_ids, const Slots &slots
                     current = Entry{node.child[k0], node.count[k0], t_entry[k0]};
                     continue;
                 }
-                // Insertion sort of (distance, lane) keys: few children are hit.
+                const unsigned k1 = unsigned(__builtin_ctz(mask));
+                if ((mask & (mask - 1)) == 0) { // two: one comparison
+                    const bool swap = t_entry[k1] < t_entry[k0];
+                    const unsigned near = swap ? k1 : k0, far = swap ? k0 : k1;
+                    stack.push(Entry{node.child[far], node.count[far], t_entry[far]});
+                    if (Packets || node.count[far] == 0) prefetch_child(nodes, packets, node.child[far], node.count[far]);
+                    current = Entry{node.child[near], node.count[near], t_entry[near]};
+                    continue;
+                }
+                // Three or more: insertion sort of (distance, lane) keys.
                 uint32_t key[8];
                 int n = 1;
                 key[0] = order_key8(t_entry[k0]) | k0;

@@ -62,7 +62,7 @@ inline PacketRay make_packet_ray(const TriangleRay &t) {
     return p;
 }
 
-inline unsigned filter_packet(const TrianglePacket &p, const PacketRay &r) {
+inline unsigned filter_packet(const TrianglePacket &p, const PacketRay &r, PacketEdges &edges) {
     unsigned keep = 0;
     for (int k = 0; k < 4; ++k) {
         const float az = p.v[0][r.kz][k] - r.org[r.kz];
@@ -79,7 +79,12 @@ inline unsigned filter_packet(const TrianglePacket &p, const PacketRay &r) {
         const float ew = bx * ay - by * ax;
         const bool mixed = (eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f);
         const bool ordered = !std::isnan(eu) && !std::isnan(ev) && !std::isnan(ew);
-        if (!(mixed && ordered)) keep |= 1u << k;
+        if (mixed && ordered) continue;
+        keep |= 1u << k;
+        edges.eu[k] = eu;
+        edges.ev[k] = ev;
+        edges.ew[k] = ew;
+        edges.mag[k] = std::fabs(cx * by) + std::fabs(ax * cy) + std::fabs(bx * ay);
     }
     return keep;
 }

@@ -61,7 +61,9 @@ inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmi
 
 using PacketRay = PacketRaySse;
 inline PacketRay make_packet_ray(const TriangleRay &t) { return make_packet_ray_sse(t); }
-inline unsigned filter_packet(const TrianglePacket &p, const PacketRay &r) { return filter_packet_sse(p, r); }
+inline unsigned filter_packet(const TrianglePacket &p, const PacketRay &r, PacketEdges &edges) {
+    return filter_packet_sse(p, r, edges);
+}
 
 #include "trace/wide8_kernel.inl"
 

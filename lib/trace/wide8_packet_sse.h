@@ -33,8 +33,10 @@ struct PacketRaySse {
 }
 
 /// Bit k set unless lane k's edge functions have certain, mixed signs (the
-/// scalar test's rejection): those lanes go on to intersect_triangle().
-[[gnu::always_inline]] inline unsigned filter_packet_sse(const TrianglePacket &p, const PacketRaySse &r) {
+/// scalar test's rejection): those lanes go on to intersect_triangle_edges()
+/// with the values stored in `edges`.
+[[gnu::always_inline]] inline unsigned filter_packet_sse(const TrianglePacket &p, const PacketRaySse &r,
+                                                         PacketEdges &edges) {
     const __m128 az = _mm_sub_ps(_mm_load_ps(p.v[0][r.kz]), r.oz);
     const __m128 bz = _mm_sub_ps(_mm_load_ps(p.v[1][r.kz]), r.oz);
     const __m128 cz = _mm_sub_ps(_mm_load_ps(p.v[2][r.kz]), r.oz);
@@ -52,7 +54,18 @@ struct PacketRaySse {
     const __m128 pos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(eu, zero), _mm_cmpgt_ps(ev, zero)), _mm_cmpgt_ps(ew, zero));
     const __m128 ordered = _mm_and_ps(_mm_cmpord_ps(eu, ev), _mm_cmpord_ps(ew, ew));
     const __m128 miss = _mm_and_ps(_mm_and_ps(neg, pos), ordered);
-    return ~unsigned(_mm_movemask_ps(miss)) & 15u;
+    const unsigned keep = ~unsigned(_mm_movemask_ps(miss)) & 15u;
+    if (keep != 0) {
+        const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7FFFFFFF));
+        const __m128 mag = _mm_add_ps(_mm_add_ps(_mm_and_ps(_mm_mul_ps(cx, by), abs_mask),
+                                                 _mm_and_ps(_mm_mul_ps(ax, cy), abs_mask)),
+                                      _mm_and_ps(_mm_mul_ps(bx, ay), abs_mask));
+        _mm_store_ps(edges.eu, eu);
+        _mm_store_ps(edges.ev, ev);
+        _mm_store_ps(edges.ew, ew);
+        _mm_store_ps(edges.mag, mag);
+    }
+    return keep;
 }
 
 } // namespace aacbvh
