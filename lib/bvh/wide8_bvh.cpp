@@ -73,61 +73,53 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     const size_t n = bvh.nodes.size();
     const bool packets = triangles != nullptr;
 
-    // Each binary subtree's primitive count when its slots are one range
-    // (children follow their parent, so one backward sweep finds them), else
-    // kNoRange. Only with packets: subtrees of at most kPacketLeaf become
-    // one leaf.
-    Array<uint32_t> range_count;
+    // One backward sweep (children follow their parent), only with packets:
+    // each binary subtree's slot range (its count is kNoRange unless its
+    // slots are one range), and which small subtrees become packet leaves.
+    // By the SAH, bottom-up: a subtree of at most kPacketLeaf primitives is
+    // one leaf when testing its packets costs less than walking its inner
+    // nodes (a binary inner node costs about a third of a wide node: a wide
+    // node replaces about three levels) and testing their leaves' packets.
+    Array<uint32_t> range_count, range_first;
+    Array<uint8_t> packet_leaf;
     if (packets) {
         range_count.resize(n);
-        Array<uint32_t> range_first(n);
+        range_first.resize(n);
+        packet_leaf.resize(n);
+        Array<float> cost(n);
         for (size_t i = n; i-- > 0;) {
             const Node &b = bnodes[i];
+            const float area = b.box.half_area();
             if (b.is_leaf()) {
                 range_first[i] = b.first;
                 range_count[i] = b.count;
+                cost[i] = b.count <= kPacketLeaf ? area * kPacketCost * float(packets_for(b.count)) : INFINITY;
+                packet_leaf[i] = 1;
                 continue;
             }
             const uint32_t l = b.first, r = b.first + 1;
             const bool joined = range_count[l] != kNoRange && range_count[r] != kNoRange &&
                                 range_first[l] + range_count[l] == range_first[r] &&
                                 uint64_t(range_count[l]) + range_count[r] < kNoRange;
+            const uint32_t count = joined ? range_count[l] + range_count[r] : kNoRange;
             range_first[i] = range_first[l];
-            range_count[i] = joined ? range_count[l] + range_count[r] : kNoRange;
-        }
-    }
-    // Which small subtrees become packet leaves: by the SAH, bottom-up, a
-    // subtree of at most kPacketLeaf primitives is one leaf when testing its
-    // packets costs less than walking its inner nodes (a binary inner node
-    // costs about a third of a wide node: a wide node replaces about three
-    // levels) and testing their leaves' packets.
-    Array<uint8_t> packet_leaf;
-    if (packets) {
-        packet_leaf.resize(n);
-        Array<float> cost(n);
-        for (size_t i = n; i-- > 0;) {
-            const Node &b = bnodes[i];
-            const float area = b.box.half_area();
-            const float as_leaf = range_count[i] <= kPacketLeaf ? area * kPacketCost * float(packets_for(range_count[i]))
-                                                                : INFINITY;
-            if (b.is_leaf()) {
-                cost[i] = as_leaf;
-                packet_leaf[i] = 1;
-                continue;
-            }
-            const float as_tree = area * kInnerCost + cost[b.first] + cost[b.first + 1];
+            range_count[i] = count;
+            const float as_leaf = count <= kPacketLeaf ? area * kPacketCost * float(packets_for(count)) : INFINITY;
+            const float as_tree = area * kInnerCost + cost[l] + cost[r];
             packet_leaf[i] = as_leaf <= as_tree ? 1 : 0;
             cost[i] = packet_leaf[i] ? as_leaf : as_tree;
         }
     }
     auto is_leaf = [&](uint32_t i) { return bnodes[i].is_leaf() || (packets && packet_leaf[i] != 0); };
-    // A leaf child's slot range: the binary leaf's, or the small subtree's
-    // (its first slot is its leftmost leaf's).
+    // A leaf child's slot range: the binary leaf's, or the small subtree's.
     auto leaf_range = [&](uint32_t i, uint32_t &first, uint32_t &count) {
-        uint32_t j = i;
-        while (!bnodes[j].is_leaf()) j = bnodes[j].first;
-        first = bnodes[j].first;
-        count = bnodes[i].is_leaf() ? bnodes[i].count : range_count[i];
+        if (bnodes[i].is_leaf()) {
+            first = bnodes[i].first;
+            count = bnodes[i].count;
+        } else {
+            first = range_first[i];
+            count = range_count[i];
+        }
     };
 
     // Pass 1, depth-first: each wide node's children (binary nodes, kept as
@@ -146,6 +138,10 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     std::vector<Work> work{{0u, 0u}};
     uint32_t next = 1;
     uint32_t next_packet = 0;
+    // Each packet's first leaf slot and lane count, for pass 3 (at most one
+    // packet per slot).
+    Array<uint32_t> packet_slots(packets ? bvh.prim_ids.size() : 0);
+    Array<uint8_t> packet_lanes(packets ? bvh.prim_ids.size() : 0);
     while (!work.empty()) {
         const Work w = work.back();
         work.pop_back();
@@ -198,6 +194,10 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
             if (packets) {
                 child[k] = next_packet;
                 count[k] = packets_for(c);
+                for (uint32_t j = 0; j < count[k]; ++j) {
+                    packet_slots[next_packet + j] = first + 4 * j;
+                    packet_lanes[next_packet + j] = uint8_t(c - 4 * j < 4 ? c - 4 * j : 4);
+                }
                 next_packet += count[k];
             } else {
                 child[k] = first;
@@ -224,18 +224,23 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
                 set_slot_box(node, k, bnodes[s].box);
                 node.child[k] = fields[16 * w + k];
                 node.count[k] = fields[16 * w + 8 + k];
-                if (!packets || node.count[k] == 0) continue;
-                uint32_t first, c;
-                leaf_range(s, first, c);
-                for (uint32_t j = 0; j < node.count[k]; ++j) {
-                    const uint32_t in_packet = c - 4 * j < 4 ? c - 4 * j : 4;
-                    fill_packet(packet_array[node.child[k] + j], *triangles, prim_ids, first + 4 * j, in_packet);
-                }
             }
+        }
+    });
+    // Pass 3, in parallel: the packets, in packet order; the triangles they
+    // gather are asked for ahead (two steps: the index, then the vertices).
+    scheduler.parallel_for(0, next_packet, 1u << 12, [&](size_t b, size_t e) {
+        for (size_t p = b; p < e; ++p) {
+            if (p + 16 < e) triangles->prefetch_indices(prim_ids[packet_slots[p + 16]]);
+            if (p + 8 < e) triangles->prefetch_vertices(prim_ids[packet_slots[p + 8]]);
+            fill_packet(packet_array[p], *triangles, prim_ids, packet_slots[p], packet_lanes[p]);
         }
     });
     Array<uint32_t>().swap(fields);
     Array<uint32_t>().swap(range_count);
+    Array<uint32_t>().swap(range_first);
+    Array<uint32_t>().swap(packet_slots);
+    Array<uint8_t>().swap(packet_lanes);
     Array<uint8_t>().swap(packet_leaf);
     // A copy of the used part (shrink_to_fit() would swallow an allocation
     // failure and keep the whole array).

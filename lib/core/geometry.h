@@ -32,6 +32,18 @@ struct Geometry {
             out[0] = uint32_t(3 * i); out[1] = uint32_t(3 * i + 1); out[2] = uint32_t(3 * i + 2);
         }
     }
+    /// Asks the cache for triangle i's indices, then (once they are likely
+    /// there) for its vertices: for passes that gather triangles out of order.
+    void prefetch_indices(size_t i) const {
+        if (indices) __builtin_prefetch(indices + 3 * i);
+    }
+    void prefetch_vertices(size_t i) const {
+        uint32_t idx[3];
+        triangle_indices(i, idx);
+        __builtin_prefetch(vertex(idx[0]));
+        __builtin_prefetch(vertex(idx[1]));
+        __builtin_prefetch(vertex(idx[2]));
+    }
     /// The three vertices of triangle i (indices assumed valid).
     void triangle(size_t i, const float *v[3]) const {
         uint32_t idx[3];
