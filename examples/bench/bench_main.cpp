@@ -581,12 +581,14 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
                 std::vector<double> seconds;
                 std::string err;
                 uint64_t hits[kRayKindCount] = {0, 0, 0};
+                double scene_bytes = 0.0;
                 if (!embree_scene_bench(scene.vertices, scene.indices, opt.threads[ti], opt.runs,
-                                        ti == 0 ? &rays : nullptr, seconds, row.mrays, hits, err)) {
+                                        ti == 0 ? &rays : nullptr, seconds, row.mrays, hits, scene_bytes, err)) {
                     row.status = "error";
                     row.note = err;
                 } else {
                     row.timings.push_back(timing_of(opt.threads[ti], seconds));
+                    if (ti == 0 && res.triangles) row.bytes_per_triangle = scene_bytes / double(res.triangles);
                     if (ti == 0 && rays.primary_hits &&
                         std::fabs(double(hits[kPrimary]) - double(rays.primary_hits)) > 0.002 * rays.primary_hits)
                         check.fail(scene.name + ": Embree hits " + std::to_string(hits[kPrimary]) +

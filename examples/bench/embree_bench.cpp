@@ -1,5 +1,8 @@
 #include "embree_bench.h"
 
+#include <atomic>
+#include <sys/types.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -52,12 +55,20 @@ double median(std::vector<double> v) {
     return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
 }
 
-/// A device with `threads` threads; released by the destructor.
+/// A device with `threads` threads; released by the destructor. Counts the
+/// bytes Embree holds through its memory monitor (what its scenes and BVHs
+/// allocate), so that the bench can put Embree's memory beside ours.
 struct Device {
     RTCDevice device = nullptr;
+    std::atomic<int64_t> bytes{0};
     explicit Device(uint32_t threads) {
         const std::string config = "threads=" + std::to_string(threads == 0 ? 1 : threads);
         device = rtcNewDevice(config.c_str());
+        if (device) rtcSetDeviceMemoryMonitorFunction(device, monitor, this);
+    }
+    static bool monitor(void *user, ssize_t delta, bool /*post*/) {
+        static_cast<Device *>(user)->bytes.fetch_add(int64_t(delta), std::memory_order_relaxed);
+        return true;
     }
     ~Device() {
         if (device) rtcReleaseDevice(device);
@@ -241,8 +252,10 @@ bool embree_build_bvh(const std::vector<float> &vertices, const std::vector<uint
 
 bool embree_scene_bench(const std::vector<float> &vertices, const std::vector<uint32_t> &indices,
                         uint32_t threads, int runs, const RaySets *rays, std::vector<double> &seconds,
-                        double mrays[kRayKindCount], uint64_t hits[kRayKindCount], std::string &err) {
+                        double mrays[kRayKindCount], uint64_t hits[kRayKindCount], double &scene_bytes,
+                        std::string &err) {
     Device dev(threads);
+    const int64_t device_bytes = dev.bytes.load();
     if (!dev.device) {
         err = "rtcNewDevice failed";
         return false;
@@ -274,6 +287,8 @@ bool embree_scene_bench(const std::vector<float> &vertices, const std::vector<ui
         }
         seconds.push_back(s);
     }
+    // What the last committed scene holds (the earlier ones are released).
+    scene_bytes = double(dev.bytes.load() - device_bytes);
     if (rays && scene) {
         for (int kind = 0; kind < kRayKindCount; ++kind) {
             const std::vector<aacbvh_ray> &set = rays->rays[kind];

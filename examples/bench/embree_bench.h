@@ -44,6 +44,7 @@ bool embree_build_bvh(const std::vector<float> &vertices, const std::vector<uint
 /// and the hits per kind (closest hits, occluded shadow rays).
 bool embree_scene_bench(const std::vector<float> &vertices, const std::vector<uint32_t> &indices,
                         uint32_t threads, int runs, const RaySets *rays, std::vector<double> &seconds,
-                        double mrays[kRayKindCount], uint64_t hits[kRayKindCount], std::string &err);
+                        double mrays[kRayKindCount], uint64_t hits[kRayKindCount], double &scene_bytes,
+                        std::string &err);
 
 }  // namespace bench
