@@ -7,6 +7,9 @@
 //     bit k set when child k may be hit within [tmin, tmax] (the binary
 //     layout's conservative slab test, ray_box_conservative(), lane for
 //     lane), its clipped entry distance in t_entry[k];
+//   int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);
+//     the hit lanes' (distance, lane) keys, ascending (sort_hits_insertion()
+//     below, or a sorting network);
 //   struct PacketRay;   PacketRay make_packet_ray(const TriangleRay &);
 //   unsigned filter_packet(const TrianglePacket &, const PacketRay &, PacketEdges &);
 //     bit k set unless the single-precision edge functions of
@@ -46,6 +49,25 @@ inline void prefetch_child(const Wide8Node *nodes, const TrianglePacket *packets
     __builtin_prefetch(p);
     __builtin_prefetch(p + 64);
     __builtin_prefetch(p + 128);
+}
+
+/// The hit lanes of `mask` as (distance, lane) keys (order_key8), sorted
+/// ascending into key[0, n); returns n. Insertion sort: few children are
+/// hit. The kernels whose ISA has a faster way define sort_hits() with it.
+inline int sort_hits_insertion(unsigned mask, const float t_entry[8], uint32_t key[8]) {
+    int n = 0;
+    do {
+        const unsigned k = unsigned(__builtin_ctz(mask));
+        mask &= mask - 1;
+        const uint32_t kk = order_key8(t_entry[k]) | k;
+        int i = n++;
+        while (i > 0 && key[i - 1] > kk) {
+            key[i] = key[i - 1];
+            --i;
+        }
+        key[i] = kk;
+    } while (mask != 0);
+    return n;
 }
 
 /// Tests a packet leaf's lanes; true when the query is done (any hit).
@@ -118,21 +140,9 @@ bool traverse(const Wide8Bvh &wide, const uint32_t *prim_ids, const Slots &slots
                     current = Entry{node.child[near], node.count[near], t_entry[near]};
                     continue;
                 }
-                // Three or more: insertion sort of (distance, lane) keys.
-                uint32_t key[8];
-                int n = 1;
-                key[0] = order_key8(t_entry[k0]) | k0;
-                do {
-                    const unsigned k = unsigned(__builtin_ctz(mask));
-                    mask &= mask - 1;
-                    const uint32_t kk = order_key8(t_entry[k]) | k;
-                    int i = n++;
-                    while (i > 0 && key[i - 1] > kk) {
-                        key[i] = key[i - 1];
-                        --i;
-                    }
-                    key[i] = kk;
-                } while (mask != 0);
+                // Three or more: (distance, lane) keys in ascending order.
+                alignas(32) uint32_t key[8];
+                const int n = sort_hits(mask | (1u << k0), t_entry, key);
                 for (int i = n; i-- > 1;) {
                     const unsigned k = key[i] & 7u;
                     stack.push(Entry{node.child[k], node.count[k], t_entry[k]});

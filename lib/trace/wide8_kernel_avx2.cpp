@@ -71,7 +71,44 @@ inline unsigned filter_packet(const TrianglePacket &p, const PacketRay &r, Packe
     return filter_packet_sse(p, r, edges);
 }
 
+int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);
+
 #include "trace/wide8_kernel.inl"
+
+/// One layer of the sorting network: each lane meets lane i ^ partner and
+/// keeps the smaller key where bit i of kMinLanes is set, else the larger.
+template <int kMinLanes>
+inline __m256i sort_layer(__m256i x, __m256i partner) {
+    const __m256i y = _mm256_permutevar8x32_epi32(x, partner);
+    return _mm256_blend_epi32(_mm256_max_epu32(x, y), _mm256_min_epu32(x, y), kMinLanes);
+}
+
+/// The hit lanes' keys sorted by a bitonic network on one register (six
+/// layers, no branch); lanes not hit get all-ones keys and sort last.
+int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]) {
+    const int n = __builtin_popcount(mask);
+    if (n < 5) return sort_hits_insertion(mask, t_entry, key);
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    __m256i u = _mm256_castps_si256(_mm256_load_ps(t_entry));
+    // order_key8(): flip all bits of negatives, the sign bit of the others.
+    u = _mm256_xor_si256(u, _mm256_or_si256(_mm256_srai_epi32(u, 31), _mm256_set1_epi32(int(0x80000000u))));
+    u = _mm256_or_si256(_mm256_and_si256(u, _mm256_set1_epi32(~7)), lane);
+    const __m256i hit = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(mask)), bit), bit);
+    __m256i x = _mm256_or_si256(u, _mm256_andnot_si256(hit, _mm256_set1_epi32(-1)));
+    const __m256i p1 = _mm256_setr_epi32(1, 0, 3, 2, 5, 4, 7, 6);
+    const __m256i p2 = _mm256_setr_epi32(2, 3, 0, 1, 6, 7, 4, 5);
+    const __m256i p4 = _mm256_setr_epi32(4, 5, 6, 7, 0, 1, 2, 3);
+    x = sort_layer<0x99>(x, p1);
+    x = sort_layer<0xC3>(x, p2);
+    x = sort_layer<0xA5>(x, p1);
+    x = sort_layer<0x0F>(x, p4);
+    x = sort_layer<0x33>(x, p2);
+    x = sort_layer<0x55>(x, p1);
+    _mm256_store_si256(reinterpret_cast<__m256i *>(key), x);
+    return n;
+}
+
 
 } // namespace
 } // namespace wide8_avx2

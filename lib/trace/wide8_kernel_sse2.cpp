@@ -65,7 +65,11 @@ inline unsigned filter_packet(const TrianglePacket &p, const PacketRay &r, Packe
     return filter_packet_sse(p, r, edges);
 }
 
+int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);
+
 #include "trace/wide8_kernel.inl"
+
+int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]) { return sort_hits_insertion(mask, t_entry, key); }
 
 } // namespace
 } // namespace wide8_sse2
