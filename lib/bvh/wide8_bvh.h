@@ -54,9 +54,10 @@ struct alignas(16) TrianglePacket {
 static_assert(sizeof(TrianglePacket) == 160, "TrianglePacket must be 160 bytes");
 
 /// A packet test's single-precision edge functions per lane (see
-/// intersect_triangle_edges() in trace/triangle_intersect.h).
-struct alignas(16) PacketEdges {
-    float eu[4], ev[4], ew[4], mag[4];
+/// intersect_triangle_edges() in trace/triangle_intersect.h), for up to two
+/// packets tested together (lanes 4-7: the second).
+struct alignas(32) PacketEdges {
+    float eu[8], ev[8], ew[8], mag[8];
 };
 
 class Wide8Bvh {

@@ -11,9 +11,11 @@
 //     the hit lanes' (distance, lane) keys, ascending (sort_hits_insertion()
 //     below, or a sorting network);
 //   struct PacketRay;   PacketRay make_packet_ray(const TriangleRay &);
-//   unsigned filter_packet(const TrianglePacket &, const PacketRay &, PacketEdges &);
-//     bit k set unless the single-precision edge functions of
-//     intersect_triangle() prove that lane k misses (they are computed by
+//   unsigned filter_packets(const TrianglePacket *, uint32_t available,
+//                           const PacketRay &, PacketEdges &, uint32_t &used);
+//     tests the first packet (used = 1) or the first two (used = 2, lanes
+//     4-7 the second); bit k set unless the single-precision edge functions
+//     of intersect_triangle() prove that lane k misses (they are computed by
 //     the same operations, so the lanes it keeps are a superset of the
 //     hits); the kept lanes' edge functions are stored in the PacketEdges.
 // The lanes a packet keeps are then finished by intersect_triangle_edges(),
@@ -71,24 +73,30 @@ inline int sort_hits_insertion(unsigned mask, const float t_entry[8], uint32_t k
 }
 
 /// Tests a packet leaf's lanes; true when the query is done (any hit).
+/// filter_packets() tests one packet, or two at once where the kernel's
+/// registers hold eight lanes (it says how many it took).
 template <bool AnyHit>
 inline bool test_packets(const TrianglePacket *packets, uint32_t count, const TriangleRay &tray,
                          const PacketRay &pray, float tmin, HitRecord<AnyHit> &best) {
-    for (uint32_t j = 0; j < count; ++j) {
-        const TrianglePacket &p = packets[j];
+    for (uint32_t j = 0; j < count;) {
         PacketEdges e;
-        unsigned lanes = filter_packet(p, pray, e);
+        uint32_t used;
+        unsigned lanes = filter_packets(packets + j, count - j, pray, e, used);
         while (lanes != 0) {
-            const unsigned k = unsigned(__builtin_ctz(lanes));
+            const unsigned lane = unsigned(__builtin_ctz(lanes));
             lanes &= lanes - 1;
+            const TrianglePacket &p = packets[j + (lane >> 2)];
+            const unsigned k = lane & 3u;
             const float a[3] = {p.v[0][0][k], p.v[0][1][k], p.v[0][2][k]};
             const float b[3] = {p.v[1][0][k], p.v[1][1][k], p.v[1][2][k]};
             const float c[3] = {p.v[2][0][k], p.v[2][1][k], p.v[2][2][k]};
             float t, u, v;
-            if (!intersect_triangle_edges(tray, a, b, c, e.eu[k], e.ev[k], e.ew[k], e.mag[k], tmin, best.tmax, t, u, v))
+            if (!intersect_triangle_edges(tray, a, b, c, e.eu[lane], e.ev[lane], e.ew[lane], e.mag[lane], tmin,
+                                          best.tmax, t, u, v))
                 continue;
             if (best.offer(t, u, v, p.prim[k])) return true;
         }
+        j += used;
     }
     return false;
 }

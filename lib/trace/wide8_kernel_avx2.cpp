@@ -67,8 +67,57 @@ inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmi
 
 using PacketRay = PacketRaySse;
 inline PacketRay make_packet_ray(const TriangleRay &t) { return make_packet_ray_sse(t); }
-inline unsigned filter_packet(const TrianglePacket &p, const PacketRay &r, PacketEdges &edges) {
-    return filter_packet_sse(p, r, edges);
+/// Two packets' rows side by side: lanes 0-3 from `a`, 4-7 from `b`.
+inline __m256 rows(const float *a, const float *b) {
+    return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(a)), _mm_load_ps(b), 1);
+}
+
+/// filter_packet_sse() on eight lanes: the same operations in the same order.
+inline unsigned filter_pair(const TrianglePacket &p, const TrianglePacket &q, const PacketRaySse &r,
+                            PacketEdges &edges) {
+    const __m256 ox = _mm256_set_m128(r.ox, r.ox), oy = _mm256_set_m128(r.oy, r.oy), oz = _mm256_set_m128(r.oz, r.oz);
+    const __m256 sx = _mm256_set_m128(r.sx, r.sx), sy = _mm256_set_m128(r.sy, r.sy);
+    const __m256 az = _mm256_sub_ps(rows(p.v[0][r.kz], q.v[0][r.kz]), oz);
+    const __m256 bz = _mm256_sub_ps(rows(p.v[1][r.kz], q.v[1][r.kz]), oz);
+    const __m256 cz = _mm256_sub_ps(rows(p.v[2][r.kz], q.v[2][r.kz]), oz);
+    const __m256 ax = _mm256_sub_ps(_mm256_sub_ps(rows(p.v[0][r.kx], q.v[0][r.kx]), ox), _mm256_mul_ps(sx, az));
+    const __m256 ay = _mm256_sub_ps(_mm256_sub_ps(rows(p.v[0][r.ky], q.v[0][r.ky]), oy), _mm256_mul_ps(sy, az));
+    const __m256 bx = _mm256_sub_ps(_mm256_sub_ps(rows(p.v[1][r.kx], q.v[1][r.kx]), ox), _mm256_mul_ps(sx, bz));
+    const __m256 by = _mm256_sub_ps(_mm256_sub_ps(rows(p.v[1][r.ky], q.v[1][r.ky]), oy), _mm256_mul_ps(sy, bz));
+    const __m256 cx = _mm256_sub_ps(_mm256_sub_ps(rows(p.v[2][r.kx], q.v[2][r.kx]), ox), _mm256_mul_ps(sx, cz));
+    const __m256 cy = _mm256_sub_ps(_mm256_sub_ps(rows(p.v[2][r.ky], q.v[2][r.ky]), oy), _mm256_mul_ps(sy, cz));
+    const __m256 eu = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
+    const __m256 ev = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
+    const __m256 ew = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
+    const __m256 zero = _mm256_setzero_ps();
+    const __m256 neg = _mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(eu, zero, _CMP_LT_OS), _mm256_cmp_ps(ev, zero, _CMP_LT_OS)),
+                                    _mm256_cmp_ps(ew, zero, _CMP_LT_OS));
+    const __m256 pos = _mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(eu, zero, _CMP_GT_OS), _mm256_cmp_ps(ev, zero, _CMP_GT_OS)),
+                                    _mm256_cmp_ps(ew, zero, _CMP_GT_OS));
+    const __m256 ordered = _mm256_and_ps(_mm256_cmp_ps(eu, ev, _CMP_ORD_Q), _mm256_cmp_ps(ew, ew, _CMP_ORD_Q));
+    const __m256 miss = _mm256_and_ps(_mm256_and_ps(neg, pos), ordered);
+    const unsigned keep = ~unsigned(_mm256_movemask_ps(miss)) & 255u;
+    if (keep != 0) {
+        const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+        const __m256 mag = _mm256_add_ps(_mm256_add_ps(_mm256_and_ps(_mm256_mul_ps(cx, by), abs_mask),
+                                                       _mm256_and_ps(_mm256_mul_ps(ax, cy), abs_mask)),
+                                         _mm256_and_ps(_mm256_mul_ps(bx, ay), abs_mask));
+        _mm256_store_ps(edges.eu, eu);
+        _mm256_store_ps(edges.ev, ev);
+        _mm256_store_ps(edges.ew, ew);
+        _mm256_store_ps(edges.mag, mag);
+    }
+    return keep;
+}
+
+inline unsigned filter_packets(const TrianglePacket *p, uint32_t available, const PacketRay &r, PacketEdges &edges,
+                               uint32_t &used) {
+    if (available >= 2) {
+        used = 2;
+        return filter_pair(p[0], p[1], r, edges);
+    }
+    used = 1;
+    return filter_packet_sse(*p, r, edges);
 }
 
 int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);

@@ -91,6 +91,12 @@ inline unsigned filter_packet(const TrianglePacket &p, const PacketRay &r, Packe
 
 int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);
 
+inline unsigned filter_packets(const TrianglePacket *p, uint32_t, const PacketRay &r, PacketEdges &edges,
+                               uint32_t &used) {
+    used = 1;
+    return filter_packet(*p, r, edges);
+}
+
 #include "trace/wide8_kernel.inl"
 
 int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]) { return sort_hits_insertion(mask, t_entry, key); }
