@@ -28,7 +28,8 @@ bool embree_build_bvh(const std::vector<float> &, const std::vector<uint32_t> &,
 }
 
 bool embree_scene_bench(const std::vector<float> &, const std::vector<uint32_t> &, uint32_t, int, const RaySets *,
-                        std::vector<double> &, double[kRayKindCount], uint64_t[kRayKindCount], std::string &err) {
+                        std::vector<double> &, double[kRayKindCount], uint64_t[kRayKindCount], double &,
+                        std::string &err) {
     err = "Embree not compiled in";
     return false;
 }

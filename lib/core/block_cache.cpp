@@ -14,7 +14,11 @@ void *BlockCache::take(size_t bytes) noexcept {
     }
     if (best == count_) return nullptr;
     void *p = blocks_[best].pointer;
+    const size_t held = blocks_[best].bytes;
     blocks_[best] = blocks_[--count_];
+    // The caller frees `bytes` (all it knows of): the pages past them go
+    // back now, or they would never be unmapped.
+    if (held > bytes) free_system_block(static_cast<char *>(p) + bytes, held - bytes);
     return p;
 }
 
