@@ -16,6 +16,7 @@
 #include "bvh/bvh_stats.h"
 #include "core/error.h"
 #include "core/memory.h"
+#include "optimize/treelet_optimizer.h"
 #include "trace/traversal.h"
 #include "trace/wide_traversal.h"
 
@@ -157,6 +158,8 @@ void BvhObject::build() {
             Array<Box>().swap(input.boxes); // flattening needs only the tree
             Array<uint32_t>().swap(input.prim_ids);
             if (!decided) choose_subtrees(tree, rule, ctx, choices);
+            // AACBVH_PARAM_OPTIMIZE_PASSES: part of the build, its time and its built_sah_cost.
+            if (params.optimize_passes > 0) optimize_tree(tree, rule, choices, params.optimize_passes, ctx, 0.8, 0.9);
             emit_bvh(tree, rule, choices, ctx, result);
         }
         if (params.layout == AACBVH_LAYOUT_WIDE4) wide.build(result, scheduler_);
@@ -240,6 +243,60 @@ void BvhObject::refit() {
     }
     if (wide_.built()) wide_.refit(bvh_, scheduler_);
     valid_ = true;
+}
+
+void BvhObject::optimize(uint32_t passes) {
+    require_idle();
+    require_tree();
+    if (passes > kMaxOptimizePasses)
+        reject("passes must be at most " + std::to_string(kMaxOptimizePasses) + ", got " + std::to_string(passes));
+    struct Building {
+        bool &flag;
+        explicit Building(bool &f) : flag(f) { flag = true; }
+        ~Building() { flag = false; }
+    } building(building_);
+    BuildContext ctx(scheduler_, progress_, progress_user_);
+    ctx.report(0.0);
+    if (passes == 0 || bvh_.prim_ids.size() < 3) { // fewer than three primitives: one topology
+        ctx.report(1.0);
+        return;
+    }
+    // Like a build, into temporaries: the handle changes only on success.
+    const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost};
+    Bvh result;
+    {
+        BinaryTree tree;
+        unflatten(bvh_, geometry_, ctx, tree);
+        ctx.report(0.05);
+        SubtreeChoices choices;
+        choose_subtrees(tree, rule, ctx, choices);
+        optimize_tree(tree, rule, choices, passes, ctx, 0.1, 0.85);
+        emit_bvh(tree, rule, choices, ctx, result);
+    }
+    // The SAH as stats report it never rises: a tree that would cost more
+    // (rounding, or leaves over a max_leaf_size lowered since the build) is
+    // not taken.
+    const double before = sum_areas(bvh_, scheduler_).sah_cost(params.traversal_cost, params.intersection_cost);
+    const double after = sum_areas(result, scheduler_).sah_cost(params.traversal_cost, params.intersection_cost);
+    if (!(after < before)) {
+        ctx.report(1.0);
+        return;
+    }
+    WideBvh wide;
+    Array<float> triangles;
+    if (params.layout == AACBVH_LAYOUT_WIDE4) wide.build(result, scheduler_);
+    if (geometry_.kind == GeometryKind::Triangles && params.triangle_storage == AACBVH_TRIANGLES_COPIED) {
+        triangles.resize(9 * result.prim_ids.size());
+        copy_triangles(result, triangles.data());
+    }
+    ctx.report(1.0);
+
+    bvh_ = std::move(result);
+    wide_ = std::move(wide);
+    triangles_.swap(triangles);
+    std::lock_guard<std::mutex> lock(figures_mutex_);
+    figures_known_ = false;     // a new topology: measured on the next stats call
+    built_areas_known_ = false; // built_sah_cost is now this tree's, as after a build
 }
 
 void BvhObject::require_tree() const {

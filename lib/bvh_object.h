@@ -42,6 +42,11 @@ public:
 
     void build();
     void refit();
+    /// Treelet restructuring of the current tree (optimize/treelet_optimizer.h),
+    /// then the layout and triangle copy made again from it. Needs a valid tree;
+    /// leaves the handle as it was on any throw (cancel, out of memory).
+    void optimize(uint32_t passes);
+    static constexpr uint32_t kMaxOptimizePasses = AACBVH_MAX_OPTIMIZE_PASSES;
 
     /// Throws Error(AACBVH_ERROR_INVALID_OPERATION) unless a valid tree exists.
     void require_tree() const;
