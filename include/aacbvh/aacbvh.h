@@ -371,14 +371,18 @@ AACBVH_API aacbvh_status aacbvh_bvh_refit(aacbvh_bvh *bvh);
 
 /**
  * Improves the current tree in place (since 1.2), after a build or after a
- * refit: treelet restructuring (Karras and Aila, HPG 2013) rewires the inner
- * nodes above the existing leaves, so every leaf keeps its primitives (and the
- * leaf-size limit holds) while aacbvh_stats.sah_cost never rises. Each pass
- * takes time linear in the node count; passes stop early once one changes
- * nothing. The result is the same at any thread count. The traversal layout
- * and the triangle copy are made again from the new tree, as a build does;
- * afterwards aacbvh_stats.built_sah_cost is the optimised tree's SAH (the
- * drift after a refit starts again from 1), build_seconds is unchanged.
+ * refit, without changing which primitives it holds. Each pass is one round
+ * of reinsertion (Bittner, Hapala, Havran 2013, in parallel rounds after
+ * Meister and Bittner 2018: sub-trees move to where they cost least) and one
+ * of treelet restructuring (Karras and Aila 2013); primitives may change
+ * leaves, the leaves are made again by the same rule as a build's (so
+ * AACBVH_PARAM_MAX_LEAF_SIZE holds), and aacbvh_stats.sah_cost never rises.
+ * Each pass takes time linear in the primitive count (plus sorting the moves
+ * it found); passes stop early once one changes nothing. The result is the
+ * same at any thread count. The traversal layout and the triangle copy are
+ * made again from the new tree, as a build does; afterwards
+ * aacbvh_stats.built_sah_cost is the optimised tree's SAH (the drift after a
+ * refit starts again from 1), build_seconds is unchanged.
  * passes 0 only checks that there is a tree. Runs on the context's threads
  * and reports progress and honours cancel through the progress callback as a
  * build does (and, like a build, cannot be called from this handle's own

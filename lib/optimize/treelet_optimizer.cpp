@@ -3,6 +3,8 @@
 #include <atomic>
 #include <vector>
 
+#include "optimize/reinsertion.h"
+
 namespace aacbvh {
 
 namespace {
@@ -184,10 +186,35 @@ private:
 OptimizeReport optimize_tree(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, uint32_t passes,
                              BuildContext &ctx, double from, double to) {
     OptimizeReport report;
+    if (tree.leaf_count() < 3) return report;
     TreeletPass pass(tree, rule, choices, ctx);
+    const uint32_t n = tree.leaf_count();
+    Array<uint32_t> saved_children;
+    Array<Box> saved_boxes;
+    SubtreeChoices saved_choices;
     for (uint32_t p = 0; p < passes; ++p) {
         ctx.report(from + (to - from) * p / passes);
-        const uint64_t changed = pass.run();
+        // Reinsertion first (far moves), then treelets (the best local
+        // shape, leaves included). A round whose moves together raise the
+        // cost (each was weighed alone) is undone.
+        const double before = choices[tree.root - n].cost;
+        saved_children = tree.children;
+        saved_boxes = tree.boxes;
+        saved_choices = choices;
+        const uint32_t saved_root = tree.root;
+        uint64_t changed = reinsertion_round(tree, choices, ctx);
+        if (changed) {
+            choose_subtrees(tree, rule, ctx, choices);
+            if (!(choices[tree.root - n].cost < before)) {
+                tree.children.swap(saved_children);
+                tree.boxes.swap(saved_boxes);
+                choices.swap(saved_choices);
+                tree.root = saved_root;
+                changed = 0;
+            }
+        }
+        report.moves += changed;
+        changed += pass.run();
         ++report.passes_run;
         report.treelets_changed += changed;
         if (changed == 0) break; // the next pass would see the same tree
