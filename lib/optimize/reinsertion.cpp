@@ -108,24 +108,39 @@ private:
         const double node_area = nb.area();
         double best_delta = -kMinGain * root_area_;
 
-        // Candidate sub-trees: (lower bound, root, cost so far). A target X
-        // in the sub-tree of another child of ancestor Y costs, besides the
-        // fixed part (minus the areas the removal takes away below Y), the
-        // growth of X's ancestors below Y and the new node's A(X + node).
+        // A target X in the sub-tree of another child of ancestor Y costs,
+        // besides the fixed part (minus the areas the removal takes away
+        // below Y), the growth of X's ancestors below Y and the new node's
+        // A(X + node). Each X is weighed when it is reached; the heap holds
+        // the sub-trees below reached nodes, by a lower bound of their cost:
+        // the growth down to them plus A(node).
         struct Entry {
-            double bound, cost;
+            double bound, cost; ///< cost: of X's children, their ancestors' growth included
             uint32_t id;
         };
         Entry heap[kReinsertLevels + 2 * kReinsertVisits + 2];
         int size = 0;
-        auto push = [&](double bound, double cost, uint32_t id) {
-            if (size == int(sizeof heap / sizeof heap[0])) return;
+        auto consider = [&](double delta, uint32_t target) {
+            if (delta < best_delta) {
+                best_delta = delta;
+                best.delta = delta;
+                best.target = target;
+            }
+        };
+        auto reach = [&](double cost, uint32_t id) {
+            const Box &xb = t_.boxes[id];
+            const double joined = unite(xb, nb).area();
+            consider(cost + joined, id);
+            if (atomic(id)) return;
+            const double below = cost + (joined - xb.area()); // id grows by the node
+            const double bound = below + node_area;
+            if (!(bound < best_delta) || size == int(sizeof heap / sizeof heap[0])) return;
             int i = size++;
             while (i > 0 && heap[(i - 1) / 2].bound > bound) {
                 heap[i] = heap[(i - 1) / 2];
                 i = (i - 1) / 2;
             }
-            heap[i] = {bound, cost, id};
+            heap[i] = {bound, below, id};
         };
         auto pop = [&]() {
             const Entry top = heap[0];
@@ -142,25 +157,18 @@ private:
             heap[i] = last;
             return top;
         };
-        auto consider = [&](double delta, uint32_t target) {
-            if (delta < best_delta) {
-                best_delta = delta;
-                best.delta = delta;
-                best.target = target;
-            }
-        };
 
         // Taking the node out removes its parent; the sibling takes its place.
         double fixed = -t_.boxes[p].area();
         const uint32_t s = sibling(node);
-        push(fixed + node_area, fixed, s);
+        reach(fixed, s);
         Box without = t_.boxes[s]; // the current ancestor's contents without the node
         uint32_t on_path = p;
         for (int level = 0; level < kReinsertLevels; ++level) {
             const uint32_t y = parent_[on_path];
             if (y == kNone) break;
             const uint32_t other = t_.left(y) == on_path ? t_.right(y) : t_.left(y);
-            push(fixed + node_area, fixed, other); // y keeps the node: unchanged
+            reach(fixed, other); // y keeps the node: unchanged
             without = unite(without, t_.boxes[other]);
             const double y_area = t_.boxes[y].area();
             fixed -= y_area - without.area(); // y shrinks once the node leaves it
@@ -173,16 +181,8 @@ private:
             const Entry e = pop();
             if (!(e.bound < best_delta)) break;
             ++visits;
-            const Box &xb = t_.boxes[e.id];
-            const double joined = unite(xb, nb).area();
-            consider(e.cost + joined, e.id);
-            if (atomic(e.id)) continue;
-            const double cost = e.cost + (joined - xb.area()); // e.id grows by the node
-            const double bound = cost + node_area;
-            if (bound < best_delta) {
-                push(bound, cost, t_.left(e.id));
-                push(bound, cost, t_.right(e.id));
-            }
+            reach(e.cost, t_.left(e.id));
+            reach(e.cost, t_.right(e.id));
         }
         return best;
     }
