@@ -24,13 +24,47 @@
 #include "build/binary_tree.h"
 #include "build/build_context.h"
 #include "build/flatten.h"
+#include "core/memory.h"
 
 namespace aacbvh {
 
-/// One round on `tree` (boxes must be exact unions of the children's).
-/// Returns the moves made; boxes are refitted, choices (build/flatten.h) are
-/// left to the caller. Throws what ctx throws (cancel) and std::bad_alloc;
-/// the tree is then unchanged if the throw came before the moves, else valid.
-uint64_t reinsertion_round(BinaryTree &tree, const SubtreeChoices &choices, BuildContext &ctx);
+/// Rounds on one tree, keeping their scratch arrays from round to round.
+class Reinsertion {
+public:
+    /// `choices` (build/flatten.h) tell which sub-trees flattening makes one
+    /// leaf: those move whole and are not searched inside.
+    Reinsertion(BinaryTree &tree, const SubtreeChoices &choices, BuildContext &ctx)
+        : t_(tree), choices_(choices), ctx_(ctx), n_(tree.leaf_count()) {}
+
+    /// One round; returns the moves made. Inner boxes above the moves are
+    /// left stale, and choices too: the caller recomputes both. Throws what
+    /// ctx throws (cancel) and std::bad_alloc before it moves anything.
+    uint64_t round();
+
+private:
+    struct Move {
+        double delta;    ///< change of the sum of inner-node areas (negative: a gain)
+        uint32_t node;   ///< the node that moves
+        uint32_t target; ///< it becomes this node's sibling; UINT32_MAX: no move
+    };
+    bool atomic(uint32_t id) const { return t_.is_leaf(id) || choices_[id - n_].leaves == 1; }
+    uint32_t sibling(uint32_t id) const;
+    size_t preorder();
+    Move search(uint32_t node) const;
+    bool take(const Move &m);
+    void replace_child(uint32_t parent, uint32_t from, uint32_t to);
+
+    BinaryTree &t_;
+    const SubtreeChoices &choices_;
+    BuildContext &ctx_;
+    const uint32_t n_;
+    double root_area_ = 0.0;
+    Array<uint32_t> parent_;
+    Array<uint32_t> order_; ///< the nodes searched, in pre-order
+    Array<uint32_t> stack_;
+    Array<uint8_t> flags_;  ///< 1: a move taken this round changed this node
+    Array<Move> moves_;
+    Array<uint32_t> found_;
+};
 
 } // namespace aacbvh

@@ -1,5 +1,6 @@
 #include "optimize/treelet_optimizer.h"
 
+#include <algorithm>
 #include <atomic>
 #include <vector>
 
@@ -32,8 +33,57 @@ public:
         return changed_.load(std::memory_order_relaxed);
     }
 
+    /// Every inner box from its children and every choice from the
+    /// children's, bottom-up (after reinsertion moved sub-trees); sub-trees
+    /// run in parallel.
+    void refresh() {
+        if (!t_.is_leaf(t_.root)) refresh_subtree(t_.root, 0);
+    }
+
 private:
     static constexpr unsigned kParallelDepth = 24;
+
+    void refresh_node(uint32_t id) {
+        const uint32_t l = t_.left(id), r = t_.right(id);
+        t_.boxes[id] = unite(t_.boxes[l], t_.boxes[r]);
+        choices_[id - n_] = rule_.inner(t_.boxes[id], choice(l), choice(r));
+    }
+
+    void refresh_subtree(uint32_t root, unsigned depth) {
+        // The primitive counts may be stale here: they only pick where to
+        // fork, which does not change the result.
+        if (depth < kParallelDepth && choices_[root - n_].prims >= kParallelGrain) {
+            const uint32_t l = t_.left(root), r = t_.right(root);
+            ctx_.scheduler().fork_join(
+                [&] {
+                    if (!t_.is_leaf(l)) refresh_subtree(l, depth + 1);
+                },
+                [&] {
+                    if (!t_.is_leaf(r)) refresh_subtree(r, depth + 1);
+                });
+            refresh_node(root);
+            return;
+        }
+        struct Item {
+            uint32_t id;
+            bool expanded;
+        };
+        std::vector<Item> stack{{root, false}};
+        while (!stack.empty()) {
+            Item &it = stack.back();
+            if (!it.expanded) {
+                it.expanded = true;
+                const uint32_t l = t_.left(it.id), r = t_.right(it.id);
+                if (!t_.is_leaf(r)) stack.push_back({r, false});
+                if (!t_.is_leaf(l)) stack.push_back({l, false});
+                continue;
+            }
+            const uint32_t id = it.id;
+            stack.pop_back();
+            refresh_node(id);
+        }
+    }
+
     static constexpr uint32_t kParallelGrain = 1u << 13; ///< primitives below a node worth a task
 
     SubtreeChoice choice(uint32_t id) const { return t_.is_leaf(id) ? rule_.leaf(t_.boxes[id]) : choices_[id - n_]; }
@@ -183,11 +233,25 @@ private:
 
 } // namespace
 
+namespace {
+
+/// dst = src, copied in parallel into dst's memory (kept from pass to pass).
+template <class T> void copy_array(const Array<T> &src, Array<T> &dst, Scheduler &sched) {
+    dst.resize(src.size());
+    sched.parallel_for(0, src.size(), size_t(1) << 16, [&](size_t b, size_t e) {
+        std::copy(src.begin() + b, src.begin() + e, dst.begin() + b);
+    });
+}
+
+} // namespace
+
 OptimizeReport optimize_tree(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, uint32_t passes,
                              BuildContext &ctx, double from, double to) {
     OptimizeReport report;
     if (tree.leaf_count() < 3) return report;
     TreeletPass pass(tree, rule, choices, ctx);
+    Reinsertion reinsertion(tree, choices, ctx);
+    Scheduler &sched = ctx.scheduler();
     const uint32_t n = tree.leaf_count();
     Array<uint32_t> saved_children;
     Array<Box> saved_boxes;
@@ -198,13 +262,13 @@ OptimizeReport optimize_tree(BinaryTree &tree, const FlattenRule &rule, SubtreeC
         // shape, leaves included). A round whose moves together raise the
         // cost (each was weighed alone) is undone.
         const double before = choices[tree.root - n].cost;
-        saved_children = tree.children;
-        saved_boxes = tree.boxes;
-        saved_choices = choices;
+        copy_array(tree.children, saved_children, sched);
+        copy_array(tree.boxes, saved_boxes, sched);
+        copy_array(choices, saved_choices, sched);
         const uint32_t saved_root = tree.root;
-        uint64_t changed = reinsertion_round(tree, choices, ctx);
+        uint64_t changed = reinsertion.round();
         if (changed) {
-            choose_subtrees(tree, rule, ctx, choices);
+            pass.refresh();
             if (!(choices[tree.root - n].cost < before)) {
                 tree.children.swap(saved_children);
                 tree.boxes.swap(saved_boxes);
