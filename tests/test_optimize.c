@@ -90,6 +90,38 @@ static void test_every_builder(void **state) {
     ts_mesh_free(&m);
 }
 
+/* Every generated scene kind (identical, zero-area, flat, wide-range ...),
+ * with AAC-HQ and sweep SAH trees: no failure, no rise, every invariant. */
+static void test_scene_kinds(void **state) {
+    (void)state;
+    const aacbvh_builder builders[] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_SWEEP_SAH};
+    for (int k = 0; k < TS_SCENE_KIND_COUNT; ++k) {
+        ts_mesh m;
+        assert_true(ts_make_scene((ts_scene_kind)k, 1500, 71 + (uint64_t)k, &m));
+        float *pb = ts_mesh_boxes(&m);
+        assert_non_null(pb);
+        for (size_t b = 0; b < sizeof builders / sizeof builders[0]; ++b) {
+            char what[96];
+            snprintf(what, sizeof what, "%s, %s", ts_scene_name((ts_scene_kind)k), aacbvh_builder_name(builders[b]));
+            aacbvh_context *ctx;
+            aacbvh_bvh *bvh;
+            ts_create(2, &ctx, &bvh);
+            TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, builders[b]), AACBVH_OK);
+            ts_set_mesh(bvh, &m);
+            TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+            const double before = stats_of(bvh).sah_cost;
+            TS_EXPECT_STATUS(aacbvh_bvh_optimize(bvh, 4), AACBVH_OK);
+            const double after = stats_of(bvh).sah_cost;
+            if (!(after <= before)) fail_msg("%s: SAH rose from %.9g to %.9g", what, before, after);
+            check_tree(bvh, pb, m.triangle_count, 4, what);
+            aacbvh_bvh_destroy(bvh);
+            aacbvh_context_destroy(ctx);
+        }
+        free(pb);
+        ts_mesh_free(&m);
+    }
+}
+
 /* The tree of optimize(passes) and of a build with AACBVH_PARAM_OPTIMIZE_PASSES
  * at 1, 2 and 3 threads, on a scene large enough for parallel tasks. */
 static void fetch_optimised(uint32_t threads, const ts_mesh *m, int via_param, ts_tree *out) {
@@ -363,7 +395,8 @@ static void test_errors(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_every_builder),   cmocka_unit_test(test_thread_counts),
+        cmocka_unit_test(test_every_builder),   cmocka_unit_test(test_scene_kinds),
+        cmocka_unit_test(test_thread_counts),
         cmocka_unit_test(test_passes_in_build), cmocka_unit_test(test_refit_and_optimize),
         cmocka_unit_test(test_answers),         cmocka_unit_test(test_cancel_keeps_tree),
         cmocka_unit_test(test_errors),

@@ -129,6 +129,9 @@ private:
     /// it if that lowers the root's cost. Children of the treelet's leaves,
     /// and the root's id (its parent points at it), stay as they were.
     void restructure(uint32_t root) {
+        // The children were visited first and may have changed: the root's
+        // choice is made again from theirs, before anything else reads it.
+        choices_[root - n_] = rule_.inner(t_.boxes[root], choice(t_.left(root)), choice(t_.right(root)));
         uint32_t leaf[kTreeletLeaves];
         double leaf_area[kTreeletLeaves];
         uint32_t inner[kTreeletLeaves - 1];
