@@ -206,23 +206,26 @@ static const char *const policy_colors[POLICY_COUNT] = {"#d62728", "#1f77b4", "#
  * build's, frame by frame. */
 static int write_drift_svg(const char *path, double *const ratio[POLICY_COUNT], int frames, const char *title) {
     const double w = 720, h = 400, left = 60, right = 200, top = 40, bottom = 50;
-    double ymax = 1.05, x, y;
+    double ymin = 1.0, ymax = 1.05, x, y;
     int p, f, k;
     FILE *out = fopen(path, "w");
     if (!out) return 0;
     for (p = 0; p < POLICY_COUNT; ++p)
-        for (f = 0; f < frames; ++f)
+        for (f = 0; f < frames; ++f) {
             if (ratio[p][f] > ymax) ymax = ratio[p][f];
+            if (ratio[p][f] < ymin) ymin = ratio[p][f];
+        }
     ymax = ceil(ymax * 20.0) / 20.0;
+    ymin = floor(ymin * 20.0) / 20.0;
     fprintf(out, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" "
                  "font-family=\"sans-serif\" font-size=\"12\">\n", w, h);
     fprintf(out, "<rect width=\"100%%\" height=\"100%%\" fill=\"white\"/>\n");
     fprintf(out, "<text x=\"%.0f\" y=\"22\" font-size=\"14\" font-weight=\"bold\">SAH drift: %s</text>\n", left,
             title);
 #define PX(fr) (left + (w - left - right) * ((frames > 1 ? (double)(fr) / (frames - 1) : 0.5)))
-#define PY(v) (h - bottom - (h - top - bottom) * (((v) - 1.0) / (ymax - 1.0)))
+#define PY(v) (h - bottom - (h - top - bottom) * (((v) - ymin) / (ymax - ymin)))
     for (k = 0; k <= 4; ++k) {
-        double v = 1.0 + (ymax - 1.0) * k / 4.0;
+        double v = ymin + (ymax - ymin) * k / 4.0;
         y = PY(v);
         fprintf(out, "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#ddd\"/>\n", left, y,
                 w - right, y);
@@ -459,8 +462,9 @@ int main(int argc, char **argv) {
     if (!check_against_fresh_build(ctx, bvh, &m, builder)) goto done;
     {
         char title[256];
-        snprintf(title, sizeof title, "%s, %zu triangles, %s", scene ? scene : "generated tube", m.triangle_count,
-                 builder_name);
+        const char *name = scene ? strrchr(scene, '/') : NULL;
+        snprintf(title, sizeof title, "%s, %zu triangles, %s", name ? name + 1 : scene ? scene : "generated tube",
+                 m.triangle_count, builder_name);
         if (compare_policies(ctx, &m, rest, &rest_box, frames, amplitude, builder, svg_path, title)) result = 0;
     }
 done:
