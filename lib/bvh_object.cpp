@@ -39,6 +39,32 @@ void check_stride(size_t stride, size_t minimum, const char *what) {
 
 } // namespace
 
+/// AACBVH_PARAM_KEEP_BUILD_MEMORY for one build or optimisation: with it, big
+/// blocks come from and go back to the handle's cache for the whole operation,
+/// the replaced tree's included; whatever the operation did not reuse is freed
+/// when it ends, failed or not. Without it, the cache is dropped.
+class BvhObject::KeptMemory {
+public:
+    KeptMemory(std::unique_ptr<BlockCache> &kept, bool keep) : cache_(prepare(kept, keep)), scope_(cache_) {}
+    ~KeptMemory() {
+        if (cache_) cache_->end_build();
+    }
+    KeptMemory(const KeptMemory &) = delete;
+    KeptMemory &operator=(const KeptMemory &) = delete;
+
+private:
+    static BlockCache *prepare(std::unique_ptr<BlockCache> &kept, bool keep) {
+        if (!keep)
+            kept.reset();
+        else if (!kept)
+            kept.reset(new BlockCache());
+        if (kept) kept->begin_build();
+        return kept.get();
+    }
+    BlockCache *cache_;
+    BlockCache::Scope scope_;
+};
+
 void BvhObject::require_idle() const {
     if (building_)
         throw Error(AACBVH_ERROR_INVALID_OPERATION,
@@ -115,21 +141,7 @@ void BvhObject::build() {
         ~Building() { flag = false; }
     } building(building_);
     const auto start = std::chrono::steady_clock::now();
-    // With AACBVH_PARAM_KEEP_BUILD_MEMORY, big blocks come from and go back to
-    // kept_blocks_ for the whole build, the old tree's included; whatever this
-    // build did not reuse is freed when it ends, failed or not.
-    if (!params.keep_build_memory)
-        kept_blocks_.reset();
-    else if (!kept_blocks_)
-        kept_blocks_.reset(new BlockCache());
-    struct EndBuild {
-        BlockCache *cache;
-        ~EndBuild() {
-            if (cache) cache->end_build();
-        }
-    } end_build{kept_blocks_.get()};
-    if (kept_blocks_) kept_blocks_->begin_build();
-    const BlockCache::Scope cached(kept_blocks_.get());
+    const KeptMemory kept(kept_blocks_, params.keep_build_memory);
 
     BuildContext ctx(scheduler_, progress_, progress_user_);
     ctx.report(0.0);
@@ -255,6 +267,7 @@ void BvhObject::optimize(uint32_t passes) {
         explicit Building(bool &f) : flag(f) { flag = true; }
         ~Building() { flag = false; }
     } building(building_);
+    const KeptMemory kept(kept_blocks_, params.keep_build_memory);
     BuildContext ctx(scheduler_, progress_, progress_user_);
     ctx.report(0.0);
     if (passes == 0 || bvh_.prim_ids.size() < 3) { // fewer than three primitives: one topology

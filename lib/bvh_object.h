@@ -99,6 +99,7 @@ private:
     /// change the handle is refused: require_idle()).
     bool building_ = false;
     void require_idle() const;
+    class KeptMemory;
 };
 
 } // namespace aacbvh

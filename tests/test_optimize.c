@@ -181,6 +181,41 @@ static void test_passes_in_build(void **state) {
     ts_mesh_free(&m);
 }
 
+/* With AACBVH_PARAM_KEEP_BUILD_MEMORY, optimising reuses the kept blocks and
+ * gives the same trees as without, build after build. */
+static void test_kept_memory(void **state) {
+    (void)state;
+    ts_mesh m;
+    assert_true(ts_make_scene(TS_SCENE_RANDOM, 60000, 81, &m)); /* arrays over 2 MiB: kept */
+    aacbvh_context *ctx;
+    aacbvh_bvh *kept, *plain;
+    ts_create(2, &ctx, &kept);
+    TS_EXPECT_STATUS(aacbvh_bvh_create(ctx, &plain), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(kept, AACBVH_PARAM_KEEP_BUILD_MEMORY, 1), AACBVH_OK);
+    ts_set_mesh(kept, &m);
+    ts_set_mesh(plain, &m);
+    for (int round = 0; round < 3; ++round) {
+        ts_tree a, b;
+        char msg[256];
+        TS_EXPECT_STATUS(aacbvh_bvh_build(kept), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_build(plain), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_optimize(kept, 2), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_optimize(plain, 2), AACBVH_OK);
+        TS_EXPECT_STATUS(ts_tree_fetch(kept, &a), AACBVH_OK);
+        TS_EXPECT_STATUS(ts_tree_fetch(plain, &b), AACBVH_OK);
+        if (!ts_tree_diff(&a, &b, msg, sizeof msg)) fail_msg("round %d: %s", round, msg);
+        assert_true(a.stats.kept_build_bytes > 0);
+        assert_int_equal(b.stats.kept_build_bytes, 0);
+        ts_tree_free(&a);
+        ts_tree_free(&b);
+        ts_jitter_mesh(&m, 82 + (uint64_t)round);
+    }
+    aacbvh_bvh_destroy(kept);
+    aacbvh_bvh_destroy(plain);
+    aacbvh_context_destroy(ctx);
+    ts_mesh_free(&m);
+}
+
 /* Refit after optimise follows the moved vertices; optimise after refit
  * lowers the drifted SAH and restarts the drift at 1. */
 static void test_refit_and_optimize(void **state) {
@@ -397,7 +432,8 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_every_builder),   cmocka_unit_test(test_scene_kinds),
         cmocka_unit_test(test_thread_counts),
-        cmocka_unit_test(test_passes_in_build), cmocka_unit_test(test_refit_and_optimize),
+        cmocka_unit_test(test_passes_in_build), cmocka_unit_test(test_kept_memory),
+        cmocka_unit_test(test_refit_and_optimize),
         cmocka_unit_test(test_answers),         cmocka_unit_test(test_cancel_keeps_tree),
         cmocka_unit_test(test_errors),
     };
