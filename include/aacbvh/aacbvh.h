@@ -224,7 +224,9 @@ typedef enum aacbvh_param {
      *  to fault in, so rebuilds are faster, at the cost of holding up to
      *  aacbvh_stats.build_peak_bytes between builds. Blocks the next build
      *  does not reuse are freed at its end; setting 0 frees them at once, as
-     *  does destroying the handle. Trees are identical either way. Default 0. */
+     *  does destroying the handle. Trees are identical either way.
+     *  aacbvh_bvh_optimize() uses the kept blocks as a build does (since 1.2).
+     *  Default 0. */
     AACBVH_PARAM_KEEP_BUILD_MEMORY = 11,
     /** int in [0, AACBVH_MAX_OPTIMIZE_PASSES] (since 1.2): passes of
      *  aacbvh_bvh_optimize() run at the end of every build, counted in its
