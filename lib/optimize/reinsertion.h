@@ -5,14 +5,15 @@
 // place where taking it out and putting it back as the sibling of another
 // node lowers the sum of inner-node areas most; the moves are then taken
 // greedily, best first, skipping any that touches a node an earlier one
-// changed or that could close a cycle, and the boxes are refitted.
+// changed or that would close a cycle (the caller then refits the boxes).
 //
 // Unlike treelets, a move may carry a sub-tree anywhere within a few levels
 // up, which is what agglomerative trees need: their excess SAH is spread over
-// the middle levels (docs/PERFORMANCE.md, entry 23), out of a treelet's reach.
+// the middle levels (docs/PERFORMANCE.md, "Optimisation (issue 14)"), out of
+// a treelet's reach.
 //
-// Bounded work: each search walks at most kReinsertLevels levels up and
-// visits at most kReinsertVisits nodes, so a round is a constant times the
+// Bounded work: each search walks at most 12 levels up and visits at most 32
+// nodes below them (reinsertion.cpp), so a round is a constant times the
 // node count (plus sorting the moves found). Searches run in parallel on
 // the context's threads, each reading only the unchanged tree; the moves are
 // chosen and made in one fixed order, so the result is the same at any
