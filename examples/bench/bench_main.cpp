@@ -49,9 +49,9 @@ struct BuilderInfo {
 };
 
 /// Passes of the default "+opt" rows. No pass count meets issue 14's quality
-/// target on the scans; 4 gets within 2-4% of full-sweep SAH there and below
-/// it on the interiors, while each pass costs about a third of an AAC-HQ
-/// build again (docs/PERFORMANCE.md, "Optimisation (issue 14)").
+/// target on the scans; 4 gets within 3.5% of full-sweep SAH there and 9-13%
+/// below it on the interiors, while each pass costs 1.5 to 2.2 AAC-HQ builds
+/// (docs/PERFORMANCE.md, "Optimisation (issue 14)").
 constexpr uint32_t kDefaultOptimizePasses = 4;
 
 /// How the reports name a builder: the library's name (aacbvh_builder_name)
