@@ -253,6 +253,11 @@ aacbvh_status aacbvh_bvh_refit(aacbvh_bvh *bvh) {
     return guarded(bvh, [&] { bvh->object.refit(); });
 }
 
+aacbvh_status aacbvh_bvh_optimize(aacbvh_bvh *bvh, uint32_t passes) {
+    AACBVH_REQUIRE_HANDLE(bvh);
+    return guarded(bvh, [&] { bvh->object.optimize(passes); });
+}
+
 aacbvh_status aacbvh_bvh_get_stats(const aacbvh_bvh *bvh, aacbvh_stats *out) {
     AACBVH_REQUIRE_HANDLE(bvh);
     AACBVH_REQUIRE(bvh, out, "out is NULL");

@@ -12,8 +12,13 @@
  * refitted tree must answer rays as a fresh build over the same vertices does.
  * Prints per-frame refit, stats and rebuild times and the cost drift.
  *
+ * Then the same animation again under three policies side by side: refit
+ * only, refit then one pass of aacbvh_bvh_optimize() (since 1.2), and a
+ * rebuild every frame; a table of time per frame and SAH over a fresh
+ * build's, and with --svg FILE a plot of that ratio over the frames.
+ *
  * usage: animated [--frames N] [--threads N] [--threshold R] [--builder NAME]
- *                 [--triangles N] [--amplitude A] [--verbose] [scene.obj]
+ *                 [--triangles N] [--amplitude A] [--svg FILE] [--verbose] [scene.obj]
  */
 #define _POSIX_C_SOURCE 200809L /* clock_gettime */
 #include <aacbvh/aacbvh.h>
@@ -191,11 +196,144 @@ done:
     return ok;
 }
 
+/* The three policies compared frame by frame: refit only, refit then one pass
+ * of aacbvh_bvh_optimize (since 1.2), and a rebuild every frame. */
+enum { POLICY_REFIT, POLICY_REFIT_OPTIMIZE, POLICY_REBUILD, POLICY_COUNT };
+static const char *const policy_names[POLICY_COUNT] = {"refit only", "refit + optimize 1 pass", "rebuild"};
+static const char *const policy_colors[POLICY_COUNT] = {"#d62728", "#1f77b4", "#2ca02c"};
+
+/* An SVG line plot of ratio[p][0 .. frames): each policy's SAH over a fresh
+ * build's, frame by frame. */
+static int write_drift_svg(const char *path, double *const ratio[POLICY_COUNT], int frames, const char *title) {
+    const double w = 720, h = 400, left = 60, right = 200, top = 40, bottom = 50;
+    double ymin = 1.0, ymax = 1.05, x, y;
+    int p, f, k;
+    FILE *out = fopen(path, "w");
+    if (!out) return 0;
+    for (p = 0; p < POLICY_COUNT; ++p)
+        for (f = 0; f < frames; ++f) {
+            if (ratio[p][f] > ymax) ymax = ratio[p][f];
+            if (ratio[p][f] < ymin) ymin = ratio[p][f];
+        }
+    ymax = ceil(ymax * 20.0) / 20.0;
+    ymin = floor(ymin * 20.0) / 20.0;
+    fprintf(out, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" "
+                 "font-family=\"sans-serif\" font-size=\"12\">\n", w, h);
+    fprintf(out, "<rect width=\"100%%\" height=\"100%%\" fill=\"white\"/>\n");
+    fprintf(out, "<text x=\"%.0f\" y=\"22\" font-size=\"14\" font-weight=\"bold\">SAH drift: %s</text>\n", left,
+            title);
+#define PX(fr) (left + (w - left - right) * ((frames > 1 ? (double)(fr) / (frames - 1) : 0.5)))
+#define PY(v) (h - bottom - (h - top - bottom) * (((v) - ymin) / (ymax - ymin)))
+    for (k = 0; k <= 4; ++k) {
+        double v = ymin + (ymax - ymin) * k / 4.0;
+        y = PY(v);
+        fprintf(out, "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#ddd\"/>\n", left, y,
+                w - right, y);
+        fprintf(out, "<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"end\">%.3f</text>\n", left - 6, y + 4, v);
+    }
+    fprintf(out, "<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"middle\">frame (1 to %d)</text>\n",
+            0.5 * (left + w - right), h - 15, frames);
+    fprintf(out, "<text transform=\"translate(15 %.1f) rotate(-90)\" text-anchor=\"middle\">SAH / fresh build's SAH</text>\n",
+            0.5 * (top + h - bottom));
+    for (p = 0; p < POLICY_COUNT; ++p) {
+        fprintf(out, "<polyline fill=\"none\" stroke-width=\"2\" stroke=\"%s\" points=\"", policy_colors[p]);
+        for (f = 0; f < frames; ++f) fprintf(out, "%s%.1f,%.1f", f ? " " : "", PX(f), PY(ratio[p][f]));
+        fprintf(out, "\"/>\n");
+        x = w - right + 15;
+        y = top + 20 + 20 * p;
+        fprintf(out, "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"%s\" stroke-width=\"2\"/>\n", x,
+                y - 4, x + 20, y - 4, policy_colors[p]);
+        fprintf(out, "<text x=\"%.1f\" y=\"%.1f\">%s</text>\n", x + 26, y, policy_names[p]);
+    }
+#undef PX
+#undef PY
+    fprintf(out, "</svg>\n");
+    return fclose(out) == 0;
+}
+
+/* Runs the animation again with one handle per policy on the same vertex
+ * buffer; prints per policy the time a frame and the SAH over the fresh
+ * build's (the rebuild policy's tree that frame), and writes the plot. */
+static int compare_policies(aacbvh_context *ctx, scene_mesh *m, const float *rest, const bounds *rest_box, int frames,
+                            double amplitude, aacbvh_builder builder, const char *svg_path, const char *title) {
+    aacbvh_bvh *h[POLICY_COUNT] = {NULL, NULL, NULL};
+    double *ms[POLICY_COUNT] = {NULL, NULL, NULL}, *ratio[POLICY_COUNT] = {NULL, NULL, NULL};
+    double *scratch = (double *)malloc((size_t)frames * sizeof(double));
+    int ok = 0, p, f;
+    if (!scratch) goto done;
+    deform(rest, m->vertices, m->vertex_count, rest_box, 0.0, amplitude);
+    for (p = 0; p < POLICY_COUNT; ++p) {
+        ms[p] = (double *)malloc((size_t)frames * sizeof(double));
+        ratio[p] = (double *)malloc((size_t)frames * sizeof(double));
+        if (!ms[p] || !ratio[p]) goto done;
+        if (!check(aacbvh_bvh_create(ctx, &h[p]), "aacbvh_bvh_create", NULL) ||
+            !check(aacbvh_bvh_set_param_int(h[p], AACBVH_PARAM_BUILDER, builder), "set builder", h[p]) ||
+            !check(aacbvh_bvh_set_param_int(h[p], AACBVH_PARAM_KEEP_BUILD_MEMORY, 1), "keep build memory", h[p]) ||
+            !check(aacbvh_bvh_set_triangles(h[p], m->vertices, m->vertex_count, 12, m->indices, m->triangle_count),
+                   "aacbvh_bvh_set_triangles", h[p]) ||
+            !check(aacbvh_bvh_build(h[p]), "aacbvh_bvh_build", h[p]))
+            goto done;
+    }
+    for (f = 0; f < frames; ++f) {
+        double t = 2.0 * PI * 2.0 * (double)(f + 1) / (double)frames, sah[POLICY_COUNT], t0;
+        aacbvh_stats st;
+        deform(rest, m->vertices, m->vertex_count, rest_box, t, amplitude);
+        for (p = 0; p < POLICY_COUNT; ++p) {
+            aacbvh_status s;
+            t0 = now_ms();
+            if (p == POLICY_REBUILD) {
+                s = aacbvh_bvh_build(h[p]);
+            } else {
+                s = aacbvh_bvh_refit(h[p]);
+                if (s == AACBVH_OK && p == POLICY_REFIT_OPTIMIZE) s = aacbvh_bvh_optimize(h[p], 1);
+            }
+            ms[p][f] = now_ms() - t0;
+            st.struct_size = sizeof st;
+            if (!check(s, policy_names[p], h[p]) || !check(aacbvh_bvh_get_stats(h[p], &st), "get_stats", h[p]))
+                goto done;
+            sah[p] = st.sah_cost;
+        }
+        for (p = 0; p < POLICY_COUNT; ++p) ratio[p][f] = sah[POLICY_REBUILD] > 0 ? sah[p] / sah[POLICY_REBUILD] : 1.0;
+    }
+    printf("\npolicies, frame by frame (SAH over the fresh build's, which is the rebuild policy's):\n");
+    printf("%-26s %12s %12s %12s %10s %10s\n", "policy", "ms/frame med", "x rebuild", "SAH/fresh med", "max", "last");
+    {
+        double rebuild_med, lo, hi;
+        memcpy(scratch, ms[POLICY_REBUILD], (size_t)frames * sizeof(double));
+        summarize(scratch, (size_t)frames, &rebuild_med, &lo, &hi);
+        for (p = 0; p < POLICY_COUNT; ++p) {
+            double med, rmed, rmax;
+            memcpy(scratch, ms[p], (size_t)frames * sizeof(double));
+            summarize(scratch, (size_t)frames, &med, &lo, &hi);
+            memcpy(scratch, ratio[p], (size_t)frames * sizeof(double));
+            summarize(scratch, (size_t)frames, &rmed, &lo, &rmax);
+            printf("%-26s %12.3f %12.3f %12.3f %10.3f %10.3f\n", policy_names[p], med,
+                   rebuild_med > 0 ? med / rebuild_med : 0.0, rmed, rmax, ratio[p][frames - 1]);
+        }
+    }
+    if (svg_path) {
+        if (!write_drift_svg(svg_path, ratio, frames, title)) {
+            fprintf(stderr, "animated: cannot write %s\n", svg_path);
+            goto done;
+        }
+        printf("wrote %s\n", svg_path);
+    }
+    ok = 1;
+done:
+    for (p = 0; p < POLICY_COUNT; ++p) {
+        aacbvh_bvh_destroy(h[p]);
+        free(ms[p]);
+        free(ratio[p]);
+    }
+    free(scratch);
+    return ok;
+}
+
 int main(int argc, char **argv) {
     int frames = 120, threads = 0, verbose = 0, result = 1, i;
     double threshold = 1.25, amplitude = 1.0;
     size_t triangles = 500000;
-    const char *scene = NULL, *builder_name = "aac-fast";
+    const char *scene = NULL, *builder_name = "aac-fast", *svg_path = NULL;
     aacbvh_builder builder = AACBVH_BUILDER_AAC_FAST;
     scene_mesh m;
     char err[512];
@@ -216,6 +354,7 @@ int main(int argc, char **argv) {
         else if (strcmp(arg, "--threshold") == 0 && next) threshold = atof(argv[++i]);
         else if (strcmp(arg, "--amplitude") == 0 && next) amplitude = atof(argv[++i]);
         else if (strcmp(arg, "--triangles") == 0 && next) triangles = (size_t)strtoull(argv[++i], NULL, 10);
+        else if (strcmp(arg, "--svg") == 0 && next) svg_path = argv[++i];
         else if (strcmp(arg, "--builder") == 0 && next) {
             builder_name = argv[++i];
             if (!parse_builder(builder_name, &builder)) {
@@ -226,7 +365,7 @@ int main(int argc, char **argv) {
         else if (arg[0] != '-' && !scene) scene = arg;
         else {
             fprintf(stderr, "usage: animated [--frames N] [--threads N] [--threshold R] [--builder NAME]\n"
-                            "                [--triangles N] [--amplitude A] [--verbose] [scene.obj]\n");
+                            "                [--triangles N] [--amplitude A] [--svg FILE] [--verbose] [scene.obj]\n");
             return 2;
         }
     }
@@ -320,7 +459,14 @@ int main(int argc, char **argv) {
      * that the check sees a refitted tree. */
     deform(rest, m.vertices, m.vertex_count, &rest_box, 2.0 * PI * 2.0 * (frames + 0.5) / frames, amplitude);
     if (!check(aacbvh_bvh_refit(bvh), "aacbvh_bvh_refit", bvh)) goto done;
-    if (check_against_fresh_build(ctx, bvh, &m, builder)) result = 0;
+    if (!check_against_fresh_build(ctx, bvh, &m, builder)) goto done;
+    {
+        char title[256];
+        const char *name = scene ? strrchr(scene, '/') : NULL;
+        snprintf(title, sizeof title, "%s, %zu triangles, %s", name ? name + 1 : scene ? scene : "generated tube",
+                 m.triangle_count, builder_name);
+        if (compare_policies(ctx, &m, rest, &rest_box, frames, amplitude, builder, svg_path, title)) result = 0;
+    }
 done:
     aacbvh_bvh_destroy(bvh);
     aacbvh_context_destroy(ctx);

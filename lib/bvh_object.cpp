@@ -16,6 +16,7 @@
 #include "bvh/bvh_stats.h"
 #include "core/error.h"
 #include "core/memory.h"
+#include "optimize/treelet_optimizer.h"
 #include "trace/traversal.h"
 #include "trace/wide_traversal.h"
 #include "trace/wide8_traversal.h"
@@ -38,6 +39,32 @@ void check_stride(size_t stride, size_t minimum, const char *what) {
 }
 
 } // namespace
+
+/// AACBVH_PARAM_KEEP_BUILD_MEMORY for one build or optimisation: with it, big
+/// blocks come from and go back to the handle's cache for the whole operation,
+/// the replaced tree's included; whatever the operation did not reuse is freed
+/// when it ends, failed or not. Without it, the cache is dropped.
+class BvhObject::KeptMemory {
+public:
+    KeptMemory(std::unique_ptr<BlockCache> &kept, bool keep) : cache_(prepare(kept, keep)), scope_(cache_) {}
+    ~KeptMemory() {
+        if (cache_) cache_->end_build();
+    }
+    KeptMemory(const KeptMemory &) = delete;
+    KeptMemory &operator=(const KeptMemory &) = delete;
+
+private:
+    static BlockCache *prepare(std::unique_ptr<BlockCache> &kept, bool keep) {
+        if (!keep)
+            kept.reset();
+        else if (!kept)
+            kept.reset(new BlockCache());
+        if (kept) kept->begin_build();
+        return kept.get();
+    }
+    BlockCache *cache_;
+    BlockCache::Scope scope_;
+};
 
 void BvhObject::require_idle() const {
     if (building_)
@@ -115,21 +142,7 @@ void BvhObject::build() {
         ~Building() { flag = false; }
     } building(building_);
     const auto start = std::chrono::steady_clock::now();
-    // With AACBVH_PARAM_KEEP_BUILD_MEMORY, big blocks come from and go back to
-    // kept_blocks_ for the whole build, the old tree's included; whatever this
-    // build did not reuse is freed when it ends, failed or not.
-    if (!params.keep_build_memory)
-        kept_blocks_.reset();
-    else if (!kept_blocks_)
-        kept_blocks_.reset(new BlockCache());
-    struct EndBuild {
-        BlockCache *cache;
-        ~EndBuild() {
-            if (cache) cache->end_build();
-        }
-    } end_build{kept_blocks_.get()};
-    if (kept_blocks_) kept_blocks_->begin_build();
-    const BlockCache::Scope cached(kept_blocks_.get());
+    const KeptMemory kept(kept_blocks_, params.keep_build_memory);
 
     BuildContext ctx(scheduler_, progress_, progress_user_);
     ctx.report(0.0);
@@ -137,9 +150,7 @@ void BvhObject::build() {
     // Everything the build allocates is counted from here (build_peak_bytes).
     MemoryMeter meter;
     Bvh result;
-    WideBvh wide;
-    Wide8Bvh wide8;
-    Array<float> triangles;
+    Layouts layouts;
     uint64_t invalid_count = 0;
     {
         const MemoryMeter::Scope metered(meter);
@@ -159,22 +170,17 @@ void BvhObject::build() {
             Array<Box>().swap(input.boxes); // flattening needs only the tree
             Array<uint32_t>().swap(input.prim_ids);
             if (!decided) choose_subtrees(tree, rule, ctx, choices);
+            // AACBVH_PARAM_OPTIMIZE_PASSES: part of the build, its time and its built_sah_cost.
+            if (params.optimize_passes > 0) optimize_tree(tree, rule, choices, params.optimize_passes, ctx, 0.8, 0.9);
             emit_bvh(tree, rule, choices, ctx, result);
         }
-        if (params.layout == AACBVH_LAYOUT_WIDE4) wide.build(result, scheduler_);
-        if (params.layout == AACBVH_LAYOUT_WIDE8) wide8.build(result, packets_wanted() ? &geometry_ : nullptr, scheduler_);
-        if (flat_copy_wanted()) {
-            triangles.resize(9 * result.prim_ids.size());
-            copy_triangles(result, triangles.data());
-        }
+        make_layouts(result, layouts);
     }
     ctx.report(1.0);
 
     // Success: only now does the handle change.
     bvh_ = std::move(result);
-    wide_ = std::move(wide);
-    wide8_ = std::move(wide8);
-    triangles_.swap(triangles);
+    install(layouts);
     invalid_count_ = invalid_count;
     build_peak_bytes_ = uint64_t(meter.peak());
     built_kind_ = geometry_.kind;
@@ -187,6 +193,21 @@ void BvhObject::build() {
         built_areas_known_ = false; // the same, until a refit changes the boxes
     }
     build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void BvhObject::make_layouts(const Bvh &tree, Layouts &out) const {
+    if (params.layout == AACBVH_LAYOUT_WIDE4) out.wide.build(tree, scheduler_);
+    if (params.layout == AACBVH_LAYOUT_WIDE8) out.wide8.build(tree, packets_wanted() ? &geometry_ : nullptr, scheduler_);
+    if (flat_copy_wanted()) {
+        out.triangles.resize(9 * tree.prim_ids.size());
+        copy_triangles(tree, out.triangles.data());
+    }
+}
+
+void BvhObject::install(Layouts &layouts) noexcept {
+    wide_ = std::move(layouts.wide);
+    wide8_ = std::move(layouts.wide8);
+    triangles_.swap(layouts.triangles);
 }
 
 bool BvhObject::packets_wanted() const {
@@ -260,6 +281,55 @@ void BvhObject::refit() {
     if (wide_.built()) wide_.refit(bvh_, scheduler_);
     if (wide8_.built()) wide8_.refit(bvh_, geometry_, scheduler_);
     valid_ = true;
+}
+
+void BvhObject::optimize(uint32_t passes) {
+    require_idle();
+    require_tree();
+    if (passes > kMaxOptimizePasses)
+        reject("passes must be at most " + std::to_string(kMaxOptimizePasses) + ", got " + std::to_string(passes));
+    struct Building {
+        bool &flag;
+        explicit Building(bool &f) : flag(f) { flag = true; }
+        ~Building() { flag = false; }
+    } building(building_);
+    const KeptMemory kept(kept_blocks_, params.keep_build_memory);
+    BuildContext ctx(scheduler_, progress_, progress_user_);
+    ctx.report(0.0);
+    if (passes == 0 || bvh_.prim_ids.size() < 3) { // fewer than three primitives: one topology
+        ctx.report(1.0);
+        return;
+    }
+    // Like a build, into temporaries: the handle changes only on success.
+    const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost};
+    Bvh result;
+    {
+        BinaryTree tree;
+        unflatten(bvh_, geometry_, ctx, tree);
+        ctx.report(0.05);
+        SubtreeChoices choices;
+        choose_subtrees(tree, rule, ctx, choices);
+        optimize_tree(tree, rule, choices, passes, ctx, 0.1, 0.85);
+        emit_bvh(tree, rule, choices, ctx, result);
+    }
+    // The SAH as stats report it never rises: a tree that would cost more
+    // (rounding, or leaves over a max_leaf_size lowered since the build) is
+    // not taken.
+    const double before = sum_areas(bvh_, scheduler_).sah_cost(params.traversal_cost, params.intersection_cost);
+    const double after = sum_areas(result, scheduler_).sah_cost(params.traversal_cost, params.intersection_cost);
+    if (!(after < before)) {
+        ctx.report(1.0);
+        return;
+    }
+    Layouts layouts;
+    make_layouts(result, layouts);
+    ctx.report(1.0);
+
+    bvh_ = std::move(result);
+    install(layouts);
+    std::lock_guard<std::mutex> lock(figures_mutex_);
+    figures_known_ = false;     // a new topology: measured on the next stats call
+    built_areas_known_ = false; // built_sah_cost is now this tree's, as after a build
 }
 
 void BvhObject::require_tree() const {

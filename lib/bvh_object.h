@@ -43,6 +43,11 @@ public:
 
     void build();
     void refit();
+    /// Treelet restructuring of the current tree (optimize/treelet_optimizer.h),
+    /// then the layout and triangle copy made again from it. Needs a valid tree;
+    /// leaves the handle as it was on any throw (cancel, out of memory).
+    void optimize(uint32_t passes);
+    static constexpr uint32_t kMaxOptimizePasses = AACBVH_MAX_OPTIMIZE_PASSES;
 
     /// Throws Error(AACBVH_ERROR_INVALID_OPERATION) unless a valid tree exists.
     void require_tree() const;
@@ -68,6 +73,15 @@ private:
     /// hold them instead).
     bool flat_copy_wanted() const;
     bool packets_wanted() const;
+    /// What queries traverse besides the binary tree, made from a new tree
+    /// (by build and optimize) before the handle changes, then installed.
+    struct Layouts {
+        WideBvh wide;
+        Wide8Bvh wide8;
+        Array<float> triangles;
+    };
+    void make_layouts(const Bvh &tree, Layouts &out) const;
+    void install(Layouts &layouts) noexcept;
     /// The copy the traversals read, or NULL to read the caller's buffers.
     const float *triangle_copy() const { return triangles_.empty() ? nullptr : triangles_.data(); }
 
@@ -103,6 +117,7 @@ private:
     /// change the handle is refused: require_idle()).
     bool building_ = false;
     void require_idle() const;
+    class KeptMemory;
 };
 
 } // namespace aacbvh

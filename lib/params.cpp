@@ -26,6 +26,7 @@ bool is_int_key(int32_t key) {
     case AACBVH_PARAM_TRAVERSAL_LAYOUT:
     case AACBVH_PARAM_TRIANGLE_STORAGE:
     case AACBVH_PARAM_KEEP_BUILD_MEMORY:
+    case AACBVH_PARAM_OPTIMIZE_PASSES:
         return true;
     default:
         return false;
@@ -105,6 +106,12 @@ void Params::set_int(int32_t key, int64_t value) {
         if (value != 0 && value != 1) reject("keep-build-memory must be 0 or 1, got " + std::to_string(value));
         keep_build_memory = value == 1;
         break;
+    case AACBVH_PARAM_OPTIMIZE_PASSES:
+        if (value < 0 || value > AACBVH_MAX_OPTIMIZE_PASSES)
+            reject("optimize passes must be in [0, " + std::to_string(AACBVH_MAX_OPTIMIZE_PASSES) + "], got " +
+                   std::to_string(value));
+        optimize_passes = uint32_t(value);
+        break;
     default:
         reject("unknown parameter");
     }
@@ -150,6 +157,7 @@ int64_t Params::get_int(int32_t key) const {
     case AACBVH_PARAM_TRAVERSAL_LAYOUT: return layout;
     case AACBVH_PARAM_TRIANGLE_STORAGE: return triangle_storage;
     case AACBVH_PARAM_KEEP_BUILD_MEMORY: return keep_build_memory ? 1 : 0;
+    case AACBVH_PARAM_OPTIMIZE_PASSES: return optimize_passes;
     default: reject("unknown parameter");
     }
 }

@@ -21,6 +21,7 @@ struct Params {
     aacbvh_layout layout = AACBVH_LAYOUT_WIDE8;
     aacbvh_triangle_storage triangle_storage = AACBVH_TRIANGLES_COPIED;
     bool keep_build_memory = false;
+    uint32_t optimize_passes = 0; ///< AACBVH_PARAM_OPTIMIZE_PASSES
 
     /// Throw Error(AACBVH_ERROR_INVALID_ARGUMENT) for unknown keys, a key of the
     /// other type, or values out of range; then nothing changes.

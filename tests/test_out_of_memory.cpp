@@ -425,6 +425,39 @@ void test_queries(void **) {
             if (!same(answers(h.bvh), before))
                 fail_msg("%s, allocation %lld failing: the tree answers differently", what, (long long)k);
         };
+        // Optimise (since 1.2): a failure keeps the tree bit for bit; success
+        // changes it (the optimised tree is what a separate handle makes).
+        const std::string optimize = "optimize" + suffix;
+        Answers optimised;
+        {
+            Handles ref;
+            ref.open(1, AACBVH_BUILDER_AAC_HQ, layout);
+            assert_int_equal(aacbvh_bvh_set_param_int(ref.bvh, AACBVH_PARAM_TRIANGLE_STORAGE, AACBVH_TRIANGLES_COPIED),
+                             AACBVH_OK);
+            assert_int_equal(aacbvh_bvh_build(ref.bvh), AACBVH_OK);
+            assert_int_equal(aacbvh_bvh_optimize(ref.bvh, 2), AACBVH_OK);
+            optimised = answers(ref.bvh);
+            ref.close();
+        }
+        for_each_failure(
+            optimize.c_str(),
+            [&] {
+                open();
+                assert_int_equal(aacbvh_bvh_set_param_int(h.bvh, AACBVH_PARAM_TRIANGLE_STORAGE, AACBVH_TRIANGLES_COPIED),
+                                 AACBVH_OK);
+                assert_int_equal(aacbvh_bvh_refit(h.bvh), AACBVH_OK); // makes the copy
+                before = answers(h.bvh);
+            },
+            [&] { return aacbvh_bvh_optimize(h.bvh, 2); },
+            [&](aacbvh_status s, bool, int64_t k) {
+                expect_ok_or_oom(s, h.bvh, optimize.c_str(), k);
+                const Answers now = answers(h.bvh);
+                if (s != AACBVH_OK && !same(now, before))
+                    fail_msg("%s, allocation %lld failing: the tree changed", optimize.c_str(), (long long)k);
+                if (s == AACBVH_OK && !same(now, optimised))
+                    fail_msg("%s, allocation %lld failing: not the optimised tree", optimize.c_str(), (long long)k);
+            },
+            close);
         const std::string refit = "refit" + suffix, intersect = "intersect" + suffix,
                           occluded = "occluded" + suffix, get_stats = "get_stats" + suffix;
         for_each_failure(

@@ -86,6 +86,7 @@ static void test_defaults(void **state) {
     assert_int_equal(get_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT), AACBVH_LAYOUT_WIDE8);
     assert_int_equal(get_int(bvh, AACBVH_PARAM_TRIANGLE_STORAGE), AACBVH_TRIANGLES_COPIED);
     assert_int_equal(get_int(bvh, AACBVH_PARAM_KEEP_BUILD_MEMORY), 0);
+    assert_int_equal(get_int(bvh, AACBVH_PARAM_OPTIMIZE_PASSES), 0);
 }
 
 static void set_int_ok(aacbvh_bvh *bvh, aacbvh_param p, int64_t v) {
@@ -119,6 +120,9 @@ static void test_round_trips(void **state) {
     set_int_ok(bvh, AACBVH_PARAM_TRIANGLE_STORAGE, AACBVH_TRIANGLES_REFERENCED);
     set_int_ok(bvh, AACBVH_PARAM_KEEP_BUILD_MEMORY, 1);
     set_int_ok(bvh, AACBVH_PARAM_KEEP_BUILD_MEMORY, 0);
+    set_int_ok(bvh, AACBVH_PARAM_OPTIMIZE_PASSES, AACBVH_MAX_OPTIMIZE_PASSES);
+    set_int_ok(bvh, AACBVH_PARAM_OPTIMIZE_PASSES, 3);
+    set_int_ok(bvh, AACBVH_PARAM_OPTIMIZE_PASSES, 0);
     set_float_ok(bvh, AACBVH_PARAM_AAC_C, 0.5);
     set_float_ok(bvh, AACBVH_PARAM_AAC_C, 1e-3);
     set_float_ok(bvh, AACBVH_PARAM_AAC_C, 3.7);
@@ -171,6 +175,8 @@ static void check_rejections(aacbvh_bvh *bvh) {
     expect_int_rejected(bvh, AACBVH_PARAM_TRIANGLE_STORAGE, -1);
     expect_int_rejected(bvh, AACBVH_PARAM_KEEP_BUILD_MEMORY, 2);
     expect_int_rejected(bvh, AACBVH_PARAM_KEEP_BUILD_MEMORY, -1);
+    expect_int_rejected(bvh, AACBVH_PARAM_OPTIMIZE_PASSES, -1);
+    expect_int_rejected(bvh, AACBVH_PARAM_OPTIMIZE_PASSES, AACBVH_MAX_OPTIMIZE_PASSES + 1);
     expect_int_rejected(bvh, AACBVH_PARAM_BUILDER, 7);
     expect_int_rejected(bvh, AACBVH_PARAM_BUILDER, -1);
     expect_int_rejected(bvh, AACBVH_PARAM_BUILDER, 0x7FFFFFFF);
@@ -198,18 +204,18 @@ static void check_rejections(aacbvh_bvh *bvh) {
     expect_float_rejected(bvh, AACBVH_PARAM_INTERSECTION_COST, INFINITY);
 
     /* Unknown keys, both types, both directions. */
-    expect_int_rejected(bvh, (aacbvh_param)12, 1);
+    expect_int_rejected(bvh, (aacbvh_param)13, 1);
     expect_int_rejected(bvh, (aacbvh_param)-1, 1);
     expect_int_rejected(bvh, (aacbvh_param)1000, 1);
     expect_int_rejected(bvh, AACBVH_PARAM_MAX_ENUM, 1);
-    expect_float_rejected(bvh, (aacbvh_param)12, 1.0);
+    expect_float_rejected(bvh, (aacbvh_param)13, 1.0);
     expect_float_rejected(bvh, (aacbvh_param)-1, 1.0);
     expect_float_rejected(bvh, AACBVH_PARAM_MAX_ENUM, 1.0);
     {
         int64_t i = 77;
         double d = 77.0;
-        TS_EXPECT_STATUS(aacbvh_bvh_get_param_int(bvh, (aacbvh_param)12, &i), AACBVH_ERROR_INVALID_ARGUMENT);
-        TS_EXPECT_STATUS(aacbvh_bvh_get_param_float(bvh, (aacbvh_param)12, &d), AACBVH_ERROR_INVALID_ARGUMENT);
+        TS_EXPECT_STATUS(aacbvh_bvh_get_param_int(bvh, (aacbvh_param)13, &i), AACBVH_ERROR_INVALID_ARGUMENT);
+        TS_EXPECT_STATUS(aacbvh_bvh_get_param_float(bvh, (aacbvh_param)13, &d), AACBVH_ERROR_INVALID_ARGUMENT);
         TS_EXPECT_STATUS(aacbvh_bvh_get_param_int(bvh, (aacbvh_param)-1, &i), AACBVH_ERROR_INVALID_ARGUMENT);
         TS_EXPECT_STATUS(aacbvh_bvh_get_param_float(bvh, (aacbvh_param)-1, &d), AACBVH_ERROR_INVALID_ARGUMENT);
     }
@@ -232,7 +238,7 @@ static void test_wrong_type(void **state) {
     const aacbvh_param int_keys[] = {AACBVH_PARAM_BUILDER, AACBVH_PARAM_AAC_DELTA, AACBVH_PARAM_MAX_LEAF_SIZE,
                                      AACBVH_PARAM_PLOC_RADIUS, AACBVH_PARAM_SKIP_INVALID_PRIMITIVES,
                                      AACBVH_PARAM_TRAVERSAL_LAYOUT, AACBVH_PARAM_TRIANGLE_STORAGE,
-                                     AACBVH_PARAM_KEEP_BUILD_MEMORY};
+                                     AACBVH_PARAM_KEEP_BUILD_MEMORY, AACBVH_PARAM_OPTIMIZE_PASSES};
     const aacbvh_param float_keys[] = {AACBVH_PARAM_AAC_C, AACBVH_PARAM_AAC_ALPHA, AACBVH_PARAM_TRAVERSAL_COST,
                                        AACBVH_PARAM_INTERSECTION_COST};
     size_t i;

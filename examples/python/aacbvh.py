@@ -69,6 +69,7 @@ PARAM_SKIP_INVALID_PRIMITIVES = 8
 PARAM_TRAVERSAL_LAYOUT = 9
 PARAM_TRIANGLE_STORAGE = 10
 PARAM_KEEP_BUILD_MEMORY = 11
+PARAM_OPTIMIZE_PASSES = 12  # since 1.2
 
 LAYOUT_BINARY = 0
 LAYOUT_WIDE4 = 1
@@ -219,6 +220,7 @@ def _load(path=None):
         "aacbvh_bvh_set_progress_callback": (st, [c_bvh, PROGRESS_FN, ctypes.c_void_p]),
         "aacbvh_bvh_build": (st, [c_bvh]),
         "aacbvh_bvh_refit": (st, [c_bvh]),
+        "aacbvh_bvh_optimize": (st, [c_bvh, ctypes.c_uint32]),
         "aacbvh_bvh_get_stats": (st, [c_bvh, P(Stats)]),
         "aacbvh_bvh_get_nodes": (st, [c_bvh, ctypes.c_size_t, ctypes.c_size_t, P(Node)]),
         "aacbvh_bvh_get_primitive_indices": (st, [c_bvh, ctypes.c_size_t, ctypes.c_size_t,
@@ -686,6 +688,10 @@ class Bvh:
 
     def refit(self):
         self._call(library().aacbvh_bvh_refit)
+
+    def optimize(self, passes=1):
+        """Improves the current tree in place (library 1.2 and later)."""
+        self._call(library().aacbvh_bvh_optimize, int(passes))
 
     # -- queries --
     def stats(self):

@@ -225,8 +225,15 @@ typedef enum aacbvh_param {
      *  to fault in, so rebuilds are faster, at the cost of holding up to
      *  aacbvh_stats.build_peak_bytes between builds. Blocks the next build
      *  does not reuse are freed at its end; setting 0 frees them at once, as
-     *  does destroying the handle. Trees are identical either way. Default 0. */
+     *  does destroying the handle. Trees are identical either way.
+     *  aacbvh_bvh_optimize() uses the kept blocks as a build does (since 1.2).
+     *  Default 0. */
     AACBVH_PARAM_KEEP_BUILD_MEMORY = 11,
+    /** int in [0, AACBVH_MAX_OPTIMIZE_PASSES] (since 1.2): passes of
+     *  aacbvh_bvh_optimize() run at the end of every build, counted in its
+     *  time (aacbvh_stats.build_seconds) and in aacbvh_stats.built_sah_cost.
+     *  Default 0 (none). */
+    AACBVH_PARAM_OPTIMIZE_PASSES = 12,
     AACBVH_PARAM_MAX_ENUM = 0x7FFFFFFF
 } aacbvh_param;
 
@@ -368,6 +375,35 @@ AACBVH_API aacbvh_status aacbvh_bvh_build(aacbvh_bvh *bvh);
  * which is what decides when to build again instead (README.md, "Animation").
  */
 AACBVH_API aacbvh_status aacbvh_bvh_refit(aacbvh_bvh *bvh);
+
+/** The most passes aacbvh_bvh_optimize() and AACBVH_PARAM_OPTIMIZE_PASSES
+ *  take (since 1.2). */
+#define AACBVH_MAX_OPTIMIZE_PASSES 64
+
+/**
+ * Improves the current tree in place (since 1.2), after a build or after a
+ * refit, without changing which primitives it holds. Each pass is one round
+ * of reinsertion (Bittner, Hapala, Havran 2013, in parallel rounds after
+ * Meister and Bittner 2018: sub-trees move to where they cost least) and one
+ * of treelet restructuring (Karras and Aila 2013); primitives may change
+ * leaves, the leaves are made again by the same rule as a build's (so
+ * AACBVH_PARAM_MAX_LEAF_SIZE holds), and aacbvh_stats.sah_cost never rises.
+ * Each pass takes time linear in the primitive count (plus sorting the moves
+ * it found); passes stop early once one changes nothing. The result is the
+ * same at any thread count. The traversal layout and the triangle copy are
+ * made again from the new tree, as a build does; afterwards
+ * aacbvh_stats.built_sah_cost is the optimised tree's SAH (the drift after a
+ * refit starts again from 1), build_seconds is unchanged.
+ * passes 0 only checks that there is a tree. Runs on the context's threads
+ * and reports progress and honours cancel through the progress callback as a
+ * build does (and, like a build, cannot be called from this handle's own
+ * callback). Returns AACBVH_OK, AACBVH_ERROR_INVALID_ARGUMENT (bvh NULL,
+ * passes above AACBVH_MAX_OPTIMIZE_PASSES), AACBVH_ERROR_INVALID_OPERATION (no
+ * tree yet, the geometry changed since the last build or refit, or called from
+ * the handle's progress callback), AACBVH_ERROR_OUT_OF_MEMORY or
+ * AACBVH_ERROR_CANCELLED; on failure the tree is kept as it was.
+ */
+AACBVH_API aacbvh_status aacbvh_bvh_optimize(aacbvh_bvh *bvh, uint32_t passes);
 
 /* ===================================================================== */
 /* Queries                                                               */

@@ -225,6 +225,27 @@ class BindingTest(unittest.TestCase):
         t, prim = brute_force(vertices, ray)
         self.assertEqual(hit.prim_id if hit.hit() else None, prim)
 
+    def test_optimize(self):
+        vertices = random_triangles(3000, seed=8)
+        self.bvh.set_triangles(vertices)
+        with self.assertRaises(aacbvh.AacbvhError):
+            self.bvh.optimize(1)  # no tree yet
+        self.bvh.build()
+        before = self.bvh.stats()
+        self.bvh.optimize(2)
+        after = self.bvh.stats()
+        self.assertLess(after.sah_cost, before.sah_cost)
+        self.assertEqual(after.built_sah_cost, after.sah_cost)
+        self.assertEqual(after.primitive_count, before.primitive_count)
+        rays = random_rays(40, seed=9)
+        for ray, hit in zip(rays, self.bvh.intersect(rays)):
+            t, prim = brute_force(vertices, ray)
+            self.assertEqual(hit.prim_id if hit.hit() else None, prim)
+        self.bvh.set_param(aacbvh.PARAM_OPTIMIZE_PASSES, 2)
+        self.assertEqual(self.bvh.get_param(aacbvh.PARAM_OPTIMIZE_PASSES), 2)
+        self.bvh.build()
+        self.assertLess(self.bvh.stats().sah_cost, before.sah_cost)
+
     def test_progress_and_cancel(self):
         vertices = random_triangles(2000, seed=4)
         self.bvh.set_triangles(vertices)

@@ -1,0 +1,343 @@
+#include "optimize/treelet_optimizer.h"
+
+#include <algorithm>
+#include <atomic>
+#include <vector>
+
+#include "optimize/reinsertion.h"
+
+namespace aacbvh {
+
+namespace {
+
+/// Leaves per treelet. Karras and Aila use 7 ((3^7 - 2^8 + 1) / 2 = 966
+/// partitions weighed per treelet); 5 weighs 90, and on AAC-HQ's bunny one
+/// pass of 5 gains 70% of what one pass of 7 gains in a quarter of the time
+/// (docs/PERFORMANCE.md, entry 23).
+constexpr int kTreeletLeaves = 5;
+constexpr uint32_t kSubsets = 1u << kTreeletLeaves;
+
+/// A treelet is replaced only when it gains more than this fraction of its
+/// cost, so that rounding noise between equal trees never churns the topology.
+constexpr double kMinGain = 1e-9;
+
+class TreeletPass {
+public:
+    TreeletPass(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, BuildContext &ctx)
+        : t_(tree), rule_(rule), choices_(choices), ctx_(ctx), n_(tree.leaf_count()) {}
+
+    /// One bottom-up pass over the whole tree; returns the treelets replaced.
+    uint64_t run() {
+        changed_.store(0, std::memory_order_relaxed);
+        if (!t_.is_leaf(t_.root)) pass_subtree(t_.root, 0);
+        return changed_.load(std::memory_order_relaxed);
+    }
+
+    /// Every inner box from its children and every choice from the
+    /// children's, bottom-up (after reinsertion moved sub-trees); sub-trees
+    /// run in parallel.
+    void refresh() {
+        if (!t_.is_leaf(t_.root)) refresh_subtree(t_.root, 0);
+    }
+
+private:
+    static constexpr unsigned kParallelDepth = 24;
+
+    void refresh_node(uint32_t id) {
+        const uint32_t l = t_.left(id), r = t_.right(id);
+        t_.boxes[id] = unite(t_.boxes[l], t_.boxes[r]);
+        choices_[id - n_] = rule_.inner(t_.boxes[id], choice(l), choice(r));
+    }
+
+    void refresh_subtree(uint32_t root, unsigned depth) {
+        // The primitive counts may be stale here: they only pick where to
+        // fork, which does not change the result.
+        if (depth < kParallelDepth && choices_[root - n_].prims >= kParallelGrain) {
+            const uint32_t l = t_.left(root), r = t_.right(root);
+            ctx_.scheduler().fork_join(
+                [&] {
+                    if (!t_.is_leaf(l)) refresh_subtree(l, depth + 1);
+                },
+                [&] {
+                    if (!t_.is_leaf(r)) refresh_subtree(r, depth + 1);
+                });
+            refresh_node(root);
+            return;
+        }
+        struct Item {
+            uint32_t id;
+            bool expanded;
+        };
+        std::vector<Item> stack{{root, false}};
+        while (!stack.empty()) {
+            Item &it = stack.back();
+            if (!it.expanded) {
+                it.expanded = true;
+                const uint32_t l = t_.left(it.id), r = t_.right(it.id);
+                if (!t_.is_leaf(r)) stack.push_back({r, false});
+                if (!t_.is_leaf(l)) stack.push_back({l, false});
+                continue;
+            }
+            const uint32_t id = it.id;
+            stack.pop_back();
+            refresh_node(id);
+        }
+    }
+
+    static constexpr uint32_t kParallelGrain = 1u << 13; ///< primitives below a node worth a task
+
+    SubtreeChoice choice(uint32_t id) const { return t_.is_leaf(id) ? rule_.leaf(t_.boxes[id]) : choices_[id - n_]; }
+
+    void pass_subtree(uint32_t root, unsigned depth) {
+        if (depth < kParallelDepth && choices_[root - n_].prims >= kParallelGrain) {
+            const uint32_t l = t_.left(root), r = t_.right(root);
+            ctx_.scheduler().fork_join(
+                [&] {
+                    if (!t_.is_leaf(l)) pass_subtree(l, depth + 1);
+                },
+                [&] {
+                    if (!t_.is_leaf(r)) pass_subtree(r, depth + 1);
+                });
+            restructure(root);
+            ctx_.poll();
+            return;
+        }
+        // Post-order with an explicit stack: trees may be as deep as their leaf count.
+        struct Item {
+            uint32_t id;
+            bool expanded;
+        };
+        std::vector<Item> stack{{root, false}};
+        uint32_t done = 0;
+        while (!stack.empty()) {
+            Item &it = stack.back();
+            if (!it.expanded) {
+                it.expanded = true;
+                const uint32_t l = t_.left(it.id), r = t_.right(it.id);
+                if (!t_.is_leaf(r)) stack.push_back({r, false});
+                if (!t_.is_leaf(l)) stack.push_back({l, false});
+                continue;
+            }
+            const uint32_t id = it.id;
+            stack.pop_back();
+            restructure(id);
+            if ((++done & 0x3FF) == 0) ctx_.poll();
+        }
+    }
+
+    /// Grows the treelet at `root`, finds its cheapest topology and installs
+    /// it if that lowers the root's cost. Children of the treelet's leaves,
+    /// and the root's id (its parent points at it), stay as they were.
+    void restructure(uint32_t root) {
+        // The children were visited first and may have changed: the root's
+        // choice is made again from theirs, before anything else reads it.
+        choices_[root - n_] = rule_.inner(t_.boxes[root], choice(t_.left(root)), choice(t_.right(root)));
+        uint32_t leaf[kTreeletLeaves];
+        double leaf_area[kTreeletLeaves];
+        uint32_t inner[kTreeletLeaves - 1];
+        int nl = 2, ni = 1;
+        inner[0] = root;
+        leaf[0] = t_.left(root);
+        leaf[1] = t_.right(root);
+        leaf_area[0] = t_.boxes[leaf[0]].area();
+        leaf_area[1] = t_.boxes[leaf[1]].area();
+        // Open the largest treelet leaf that is an inner node (Karras and
+        // Aila: large nodes are where restructuring pays); the first on ties.
+        while (nl < kTreeletLeaves) {
+            int pick = -1;
+            for (int i = 0; i < nl; ++i)
+                if (!t_.is_leaf(leaf[i]) && (pick < 0 || leaf_area[i] > leaf_area[pick])) pick = i;
+            if (pick < 0) break;
+            const uint32_t id = leaf[pick];
+            inner[ni++] = id;
+            leaf[pick] = t_.left(id);
+            leaf[nl] = t_.right(id);
+            leaf_area[pick] = t_.boxes[leaf[pick]].area();
+            leaf_area[nl] = t_.boxes[leaf[nl]].area();
+            ++nl;
+        }
+        if (nl < 3) return; // two leaves have one topology
+
+        // best[S]: the cheapest sub-tree over the treelet leaves in S (cost,
+        // primitives, leaves kept, as flattening decides them); side[S]: the
+        // part holding S's lowest leaf in it (0 when it became one leaf).
+        Box box[kSubsets];
+        SubtreeChoice best[kSubsets];
+        double cost[kSubsets]; // best[].cost, packed for the inner loop
+        uint8_t side[kSubsets];
+        const uint32_t full = (1u << nl) - 1;
+        for (int i = 0; i < nl; ++i) {
+            box[1u << i] = t_.boxes[leaf[i]];
+            best[1u << i] = choice(leaf[i]);
+            cost[1u << i] = best[1u << i].cost;
+        }
+        for (uint32_t s = 3; s <= full; ++s) {
+            const uint32_t low = s & (0u - s);
+            if (s == low) continue;
+            const uint32_t rest = s ^ low;
+            box[s] = unite(box[rest], box[low]);
+            double split_cost = cost[rest] + cost[low];
+            uint32_t split_side = low;
+            // The other partitions: low plus a non-empty proper part of rest.
+            for (uint32_t sub = (rest - 1) & rest; sub != 0; sub = (sub - 1) & rest) {
+                const uint32_t part = low | sub;
+                const double c = cost[part] + cost[s ^ part];
+                if (c < split_cost) {
+                    split_cost = c;
+                    split_side = part;
+                }
+            }
+            best[s] = rule_.inner(box[s], best[split_side], best[s ^ split_side]);
+            cost[s] = best[s].cost;
+            side[s] = uint8_t(split_side);
+        }
+        const SubtreeChoice old = choices_[root - n_];
+        if (!(best[full].cost < old.cost * (1.0 - kMinGain))) return;
+
+        // Install: the treelet's inner nodes are reused, the root first;
+        // pre-order ids and children, then boxes and choices bottom-up.
+        int next_inner = 1;
+        struct Frame {
+            uint32_t set, id;
+        };
+        Frame stack[kTreeletLeaves];
+        Frame order[kTreeletLeaves - 1];
+        int top = 0, no = 0;
+        stack[top++] = {full, root};
+        while (top > 0) {
+            const Frame f = stack[--top];
+            order[no++] = f;
+            const uint32_t parts[2] = {side[f.set], f.set ^ side[f.set]};
+            uint32_t child[2];
+            for (int c = 0; c < 2; ++c) {
+                if ((parts[c] & (parts[c] - 1)) == 0) {
+                    child[c] = leaf[__builtin_ctz(parts[c])];
+                } else {
+                    child[c] = inner[next_inner++];
+                    stack[top++] = {parts[c], child[c]};
+                }
+            }
+            t_.set_children(f.id, child[0], child[1]);
+        }
+        for (int k = no; k-- > 0;) {
+            t_.boxes[order[k].id] = box[order[k].set];
+            choices_[order[k].id - n_] = best[order[k].set];
+        }
+        changed_.fetch_add(1, std::memory_order_relaxed);
+    }
+
+    BinaryTree &t_;
+    const FlattenRule &rule_;
+    SubtreeChoices &choices_;
+    BuildContext &ctx_;
+    const uint32_t n_;
+    std::atomic<uint64_t> changed_{0};
+};
+
+} // namespace
+
+namespace {
+
+/// dst = src, copied in parallel into dst's memory (kept from pass to pass).
+template <class T> void copy_array(const Array<T> &src, Array<T> &dst, Scheduler &sched) {
+    dst.resize(src.size());
+    sched.parallel_for(0, src.size(), size_t(1) << 16, [&](size_t b, size_t e) {
+        std::copy(src.begin() + b, src.begin() + e, dst.begin() + b);
+    });
+}
+
+} // namespace
+
+OptimizeReport optimize_tree(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, uint32_t passes,
+                             BuildContext &ctx, double from, double to) {
+    OptimizeReport report;
+    if (tree.leaf_count() < 3) return report;
+    TreeletPass pass(tree, rule, choices, ctx);
+    Reinsertion reinsertion(tree, choices, ctx);
+    Scheduler &sched = ctx.scheduler();
+    const uint32_t n = tree.leaf_count();
+    Array<uint32_t> saved_children;
+    Array<Box> saved_boxes;
+    SubtreeChoices saved_choices;
+    for (uint32_t p = 0; p < passes; ++p) {
+        ctx.report(from + (to - from) * p / passes);
+        // Reinsertion first (far moves), then treelets (the best local
+        // shape, leaves included). A round whose moves together raise the
+        // cost (each was weighed alone) is undone.
+        const double before = choices[tree.root - n].cost;
+        copy_array(tree.children, saved_children, sched);
+        copy_array(tree.boxes, saved_boxes, sched);
+        copy_array(choices, saved_choices, sched);
+        const uint32_t saved_root = tree.root;
+        uint64_t changed = reinsertion.round();
+        if (changed) {
+            pass.refresh();
+            if (!(choices[tree.root - n].cost < before)) {
+                tree.children.swap(saved_children);
+                tree.boxes.swap(saved_boxes);
+                choices.swap(saved_choices);
+                tree.root = saved_root;
+                changed = 0;
+            }
+        }
+        report.moves += changed;
+        changed += pass.run();
+        ++report.passes_run;
+        report.treelets_changed += changed;
+        if (changed == 0) break; // the next pass would see the same tree
+    }
+    ctx.report(to);
+    return report;
+}
+
+void unflatten(const Bvh &bvh, const Geometry &geometry, BuildContext &ctx, BinaryTree &out) {
+    const size_t n = bvh.prim_ids.size();
+    if (n == 0) {
+        out = BinaryTree();
+        return;
+    }
+    out.resize(uint32_t(n));
+    Scheduler &sched = ctx.scheduler();
+    sched.parallel_for(0, n, size_t(1) << 13, [&](size_t b, size_t e) {
+        for (size_t i = b; i < e; ++i) {
+            out.prim_ids[i] = bvh.prim_ids[i];
+            out.boxes[i] = geometry.primitive_box(bvh.prim_ids[i]);
+        }
+    });
+    ctx.check_cancelled();
+    // Children sit after their parent in the Bvh: a reverse sweep meets both
+    // children of a node before it. id_of maps Bvh nodes to tree ids.
+    Array<uint32_t> id_of(bvh.nodes.size());
+    uint32_t next = uint32_t(n);
+    std::vector<uint32_t> stack;
+    for (size_t j = bvh.nodes.size(); j-- > 0;) {
+        const Node &node = bvh.nodes[j];
+        if (!node.is_leaf()) {
+            const uint32_t id = next++, l = id_of[node.first], r = id_of[node.first + 1];
+            out.set_children(id, l, r);
+            out.boxes[id] = unite(out.boxes[l], out.boxes[r]);
+            id_of[j] = id;
+            continue;
+        }
+        // A balanced sub-tree over slots [first, first + count), halving in
+        // slot order; built bottom-up by merging neighbours level by level.
+        stack.clear();
+        for (uint32_t k = 0; k < node.count; ++k) stack.push_back(node.first + k);
+        while (stack.size() > 1) {
+            size_t w = 0;
+            for (size_t k = 0; k + 1 < stack.size(); k += 2) {
+                const uint32_t id = next++;
+                out.set_children(id, stack[k], stack[k + 1]);
+                out.boxes[id] = unite(out.boxes[stack[k]], out.boxes[stack[k + 1]]);
+                stack[w++] = id;
+            }
+            if (stack.size() % 2) stack[w++] = stack.back();
+            stack.resize(w);
+        }
+        id_of[j] = stack[0];
+        if ((j & 0xFFFF) == 0) ctx.poll();
+    }
+    out.root = id_of[0];
+}
+
+} // namespace aacbvh

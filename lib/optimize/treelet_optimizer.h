@@ -1,0 +1,53 @@
+// Better trees after a build. Each pass is one round of reinsertion
+// (optimize/reinsertion.h: sub-trees moved to better places anywhere a few
+// levels up) followed by one pass of treelet restructuring after Karras and
+// Aila, "Fast Parallel Construction of High-Quality Bounding Volume
+// Hierarchies" (HPG 2013). A treelet is a node with the inner nodes grown
+// below it (always opening its largest-area leaf) until it has 5 leaves
+// (Karras and Aila: 7); the cheapest binary tree over those leaves is found
+// exactly by dynamic programming over their subsets, with the same cost as
+// sub-tree flattening (build/flatten.h: an inner node costs Ct A plus its
+// children, a sub-tree of at most max_leaf_size primitives may instead become
+// one leaf costing Ci A N), and replaces the treelet when it is cheaper.
+// Working on the one-primitive-per-leaf BinaryTree lets primitives move
+// between leaves; flattening then makes the leaves again, so the leaf-size
+// limit holds.
+//
+// A treelet pass visits every inner node bottom-up (a node after both of its
+// children's sub-trees), so its work is a constant times the primitive count.
+// Sibling sub-trees are independent, so they run in parallel, and the result
+// does not depend on the thread count.
+#pragma once
+
+#include <cstdint>
+
+#include "build/binary_tree.h"
+#include "build/build_context.h"
+#include "build/flatten.h"
+#include "bvh/bvh.h"
+#include "core/geometry.h"
+
+namespace aacbvh {
+
+struct OptimizeReport {
+    uint32_t passes_run = 0;       ///< passes made (they stop early once one changes nothing)
+    uint64_t treelets_changed = 0; ///< treelets replaced and moves made (reinsertion.h), over all passes
+    uint64_t moves = 0;            ///< of which reinsertion moves
+};
+
+/// Runs up to `passes` passes on `tree`, whose `choices` (flatten.h, for
+/// `rule`) must be current for every inner node; keeps them current, so the
+/// tree goes straight to emit_bvh(). The root's cost never rises (a
+/// reinsertion round that would raise it is undone). Reports
+/// progress in [from, to] through ctx; throws what ctx throws (cancel), with
+/// the tree then a valid but partly optimised one.
+OptimizeReport optimize_tree(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, uint32_t passes,
+                             BuildContext &ctx, double from, double to);
+
+/// The one-primitive-per-leaf BinaryTree of a finished Bvh, for optimize_tree:
+/// leaf i is slot i of bvh.prim_ids, boxed from the geometry; the Bvh's inner
+/// nodes are kept and each leaf of several primitives becomes a balanced
+/// sub-tree over its slots. Boxes are recomputed from the primitives.
+void unflatten(const Bvh &bvh, const Geometry &geometry, BuildContext &ctx, BinaryTree &out);
+
+} // namespace aacbvh
