@@ -49,6 +49,11 @@ static const wide_variant kWide[] = {
     {AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED},
 };
 enum { kWideCount = sizeof kWide / sizeof kWide[0] };
+/* Which of kWide the mesh checks run: all of them, except on the scenes whose
+ * rays meet every triangle (identical, stacked), where the 1.1 layout and the
+ * default are enough and the other two would only multiply the run time. */
+enum { kAllWide = 0xF, kMainWide = 0x9 };
+static unsigned g_wide_variants = kAllWide;
 
 static void set_builder(aacbvh_bvh *bvh, aacbvh_builder builder, uint32_t leaf, aacbvh_layout layout,
                         aacbvh_triangle_storage storage) {
@@ -79,6 +84,7 @@ static void check_mesh(ts_mesh *mesh, const char *name, uint64_t seed, int must_
             aacbvh_ray *rays;
             char what[160];
             size_t hits;
+            if (!(g_wide_variants >> wi & 1u)) continue;
             memcpy(mesh->vertices, original, coords * sizeof *original);
             TS_EXPECT_STATUS(aacbvh_bvh_create(g_ctx, &binary), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_create(g_ctx, &wide), AACBVH_OK);
@@ -151,21 +157,25 @@ static void test_bunny(void **state) {
 
 static void test_degenerate_scenes(void **state) {
     (void)state;
+    g_wide_variants = kMainWide;
     check_generated(TS_SCENE_IDENTICAL, 500, 21);
-    check_generated(TS_SCENE_FLAT, 1500, 22);
     check_generated(TS_SCENE_SAME_CENTROID, 500, 23);
     check_generated(TS_SCENE_ZERO_AREA, 500, 24);
-    check_generated(TS_SCENE_SLIVERS, 1000, 25);
-    check_generated(TS_SCENE_WIDE_RANGE, 1000, 26);
     check_generated(TS_SCENE_COPLANAR, 1200, 28);
     check_generated(TS_SCENE_COPLANAR_STACK, 1200, 29);
+    g_wide_variants = kAllWide;
+    check_generated(TS_SCENE_FLAT, 1500, 22);
+    check_generated(TS_SCENE_SLIVERS, 1000, 25);
+    check_generated(TS_SCENE_WIDE_RANGE, 1000, 26);
 }
 
 /* Many identical triangles in leaves of 1: a deep tree, whose traversal
  * stacks spill past their fixed part. */
 static void test_deep_tree(void **state) {
     (void)state;
+    g_wide_variants = kMainWide;
     check_generated(TS_SCENE_IDENTICAL, 3000, 27);
+    g_wide_variants = kAllWide;
 }
 
 static void test_single_triangle(void **state) {
