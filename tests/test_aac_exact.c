@@ -279,6 +279,55 @@ static void test_presets_sah_close_to_exact(void **state) {
         }
 }
 
+/* A tree's nodes, from a build of `n` boxes with the builder (and, for
+ * AACBVH_BUILDER_AAC, delta, c, alpha) given; malloc'd, *count set. */
+static aacbvh_node *build_nodes(const float *boxes, size_t n, int builder, size_t *count) {
+    aacbvh_bvh *bvh = NULL;
+    aacbvh_stats st;
+    aacbvh_node *nodes;
+    TS_EXPECT_STATUS(aacbvh_bvh_create(g_ctx, &bvh), AACBVH_OK);
+    if (builder == AACBVH_BUILDER_AAC) {
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_AAC_DELTA, 4), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_AAC_C, pow(4.0, 0.7) / 2.0), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_AAC_ALPHA, 0.3), AACBVH_OK);
+    } else {
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, builder), AACBVH_OK);
+    }
+    TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(bvh, boxes, n, 24), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+    st.struct_size = sizeof st;
+    TS_EXPECT_STATUS(aacbvh_bvh_get_stats(bvh, &st), AACBVH_OK);
+    *count = (size_t)st.node_count;
+    nodes = (aacbvh_node *)malloc(*count * sizeof *nodes);
+    assert_non_null(nodes);
+    TS_EXPECT_STATUS(aacbvh_bvh_get_nodes(bvh, 0, *count, nodes), AACBVH_OK);
+    aacbvh_bvh_destroy(bvh);
+    return nodes;
+}
+
+/* AAC-Fast takes AAC-HQ's cluster counts from 1,024 primitives up (issue 17);
+ * the paper's fast preset stays available as AACBVH_BUILDER_AAC with its
+ * values (delta 4, c = 4^0.7 / 2, alpha 0.3). Below 1,024 boxes the two build
+ * the same tree; above, the top differs. */
+static void test_fast_top_stage_and_paper_values(void **state) {
+    const size_t sizes[] = {1000, 6000};
+    size_t si;
+    (void)state;
+    for (si = 0; si < 2; ++si) {
+        const size_t n = sizes[si];
+        float *boxes = ts_random_boxes(n, 0.05f, 4242 + n);
+        size_t nf = 0, np = 0;
+        aacbvh_node *fast = build_nodes(boxes, n, AACBVH_BUILDER_AAC_FAST, &nf);
+        aacbvh_node *paper = build_nodes(boxes, n, AACBVH_BUILDER_AAC, &np);
+        const int same = nf == np && memcmp(fast, paper, nf * sizeof *fast) == 0;
+        if (n < 1024 && !same) fail_msg("n = %zu: AAC-Fast and the paper's fast values differ below 1,024", n);
+        if (n >= 1024 && same) fail_msg("n = %zu: AAC-Fast builds the paper's tree above 1,024", n);
+        free(fast);
+        free(paper);
+        free(boxes);
+    }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_reference_sanity),
@@ -286,6 +335,7 @@ int main(void) {
         cmocka_unit_test(test_locally_ordered_matches_greedy),
         cmocka_unit_test(test_ploc_full_radius_matches_greedy),
         cmocka_unit_test(test_presets_sah_close_to_exact),
+        cmocka_unit_test(test_fast_top_stage_and_paper_values),
     };
     return cmocka_run_group_tests(tests, setup_group, teardown_group);
 }

@@ -22,7 +22,9 @@ namespace aacbvh {
 uint32_t aac_cluster_target(const AacConfig &config, uint32_t n) {
     // The presets make f(delta) an integer (delta / 2); pow() lands a hair above
     // it (10.000000000000002 for HQ), so round off that noise before the ceil.
-    const double f = std::ceil(config.c * std::pow(double(n), config.alpha) * (1.0 - 1e-12));
+    const bool top = config.top_from != 0 && n >= config.top_from;
+    const double c = top ? config.top_c : config.c, alpha = top ? config.top_alpha : config.alpha;
+    const double f = std::ceil(c * std::pow(double(n), alpha) * (1.0 - 1e-12));
     if (!(f >= 1.0)) return 1;
     return f >= double(n) ? n : uint32_t(f);
 }
