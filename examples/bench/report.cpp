@@ -510,7 +510,10 @@ bool write_svg(const std::string &path, const std::vector<SceneResult> &scenes, 
     struct Point {
         double x, y;   ///< build time and ray cost, each over sweep SAH's on the scene
         size_t builder;
+        double view_y;   ///< in-scene views' ray cost over sweep SAH's (NaN: none measured)
+        double overlap;  ///< the tree's overlap by volume (NaN: not measured)
     };
+    bool any_views = false;
     std::vector<std::string> builders;  // labels in first-seen order: marker b is builders[b]
     std::vector<std::vector<Point>> points(scenes.size());
     std::vector<double> reference_ms(scenes.size(), kNaN);
@@ -524,9 +527,21 @@ bool write_svg(const std::string &path, const std::vector<SceneResult> &scenes, 
             if (r.status != "ok" || !(x > 0.0) || std::isnan(y)) continue;
             const size_t b = std::find(builders.begin(), builders.end(), r.label) - builders.begin();
             if (b == builders.size()) builders.push_back(r.label);
-            points[si].push_back({x, y, b});
+            // The views' cost: the mean over the ray kinds (those the views had)
+            // of the geometric means over views, like the main y. Only files
+            // with views have it, so the plot of an older file does not change.
+            double vy = 0;
+            int kinds = 0;
+            for (int k = 0; k < kRayKindCount; ++k)
+                if (!std::isnan(r.views[k].rel_cost_mean)) vy += r.views[k].rel_cost_mean, ++kinds;
+            vy = scenes[si].views > 0 && kinds > 0 ? vy / kinds : kNaN;
+            points[si].push_back({x, y, b, vy, r.overlap_volume});
             xlo = std::min(xlo, x), xhi = std::max(xhi, x);
             ylo = std::min(ylo, y), yhi = std::max(yhi, y);
+            if (!std::isnan(vy)) {
+                any_views = true;
+                ylo = std::min(ylo, vy), yhi = std::max(yhi, vy);
+            }
         }
     }
     // Shared axes, so that panels compare at a glance: x from the 1-2-5 values
@@ -622,6 +637,18 @@ bool write_svg(const std::string &path, const std::vector<SceneResult> &scenes, 
             d += format("H%.1f", left + pw);
             o << "<path d=\"" << d << "\" fill=\"none\" stroke=\"black\" stroke-width=\"1.6\"/>\n";
         }
+        // In-scene views: an open circle at the views' cost, joined to the
+        // builder's marker, with the tree's overlap by volume beside it.
+        for (const Point &p : pts) {
+            if (std::isnan(p.view_y)) continue;
+            o << format("<path d=\"M%.1f %.1fV%.1f\" stroke=\"#999999\" stroke-dasharray=\"2,2\"/>\n", X(p.x),
+                        Y(p.y), Y(p.view_y));
+            o << format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"3.5\" fill=\"white\" stroke=\"#555555\"/>\n", X(p.x),
+                        Y(p.view_y));
+            if (!std::isnan(p.overlap))
+                o << format("<text x=\"%.1f\" y=\"%.1f\" font-size=\"8\" fill=\"#777777\">%.2f</text>\n",
+                            X(p.x) + 5, Y(p.view_y) + 3, p.overlap);
+        }
         for (const Point &p : pts) o << svg_marker(p.builder, X(p.x), Y(p.y)) << "\n";
         // The front's builders by name. Each label goes to the first of eight
         // places around its point that covers no marker and no label placed
@@ -678,6 +705,14 @@ bool write_svg(const std::string &path, const std::vector<SceneResult> &scenes, 
         o << format("<path d=\"M%.1f %.1fH%.1f\" stroke=\"#888888\" stroke-dasharray=\"5,4\"/>\n", lx, ly - 4,
                     lx + 14);
         o << format("<text x=\"%.1f\" y=\"%.1f\">sweep SAH = 1</text>\n", lx + 20, ly);
+        if (any_views) {
+            ly += 17;
+            o << format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"3.5\" fill=\"white\" stroke=\"#555555\"/>\n", lx + 7,
+                        ly - 4);
+            o << format("<text x=\"%.1f\" y=\"%.1f\">in-scene views' cost; beside it</text>\n", lx + 20, ly);
+            ly += 14;
+            o << format("<text x=\"%.1f\" y=\"%.1f\">the tree's overlap by volume</text>\n", lx + 20, ly);
+        }
     }
 
     // How to read it.

@@ -247,6 +247,12 @@ void test_views() {
     CHECK(write_markdown("test_report_views.md", back, info, err));
     CHECK(slurp("test_report_views.md").find("In-scene views: 3 of 16x8") != std::string::npos);
     CHECK(check_markdown_file("test_report_views.md", err));
+    // The plot marks the views' cost and the overlap only when there are views.
+    CHECK(write_svg("test_report_views.svg", back, info, err) && check_svg_file("test_report_views.svg", err));
+    const std::string with = slurp("test_report_views.svg");
+    CHECK(with.find("in-scene views' cost") != std::string::npos && with.find(">0.50</text>") != std::string::npos);
+    CHECK(write_svg("test_report_no_views.svg", {make_scene("plain", true)}, info, err));
+    CHECK(slurp("test_report_no_views.svg").find("in-scene views") == std::string::npos);
 }
 
 int main() {
