@@ -1304,14 +1304,16 @@ bool read_json(const std::string &path, std::vector<SceneResult> &scenes, RunInf
         }
         for (int k = 0; k < kRayKindCount; ++k) s.ray_counts[k] = uint64_t(js["rays"][ray_kind_name(k)].num());
         const Json &views = js["views"];
-        if (views.kind == Json::kObject && views["count"].num() > 0) {
-            s.views = uint32_t(views["count"].num());
+        // Counts out of range (a damaged or hand-edited file) become 0, never an undefined conversion.
+        auto count = [](double v, double max) { return v >= 0 && v <= max ? v : 0.0; };
+        if (views.kind == Json::kObject && count(views["count"].num(), 4294967295.0) >= 1) {
+            s.views = uint32_t(count(views["count"].num(), 4294967295.0));
             if (views["image"].items.size() == 2) {
-                s.view_width = uint32_t(views["image"].items[0].num());
-                s.view_height = uint32_t(views["image"].items[1].num());
+                s.view_width = uint32_t(count(views["image"].items[0].num(), 4294967295.0));
+                s.view_height = uint32_t(count(views["image"].items[1].num(), 4294967295.0));
             }
             for (int k = 0; k < kRayKindCount; ++k)
-                s.view_ray_counts[k] = uint64_t(views["rays"][ray_kind_name(k)].num());
+                s.view_ray_counts[k] = uint64_t(count(views["rays"][ray_kind_name(k)].num(), 1.8e19));
         }
         for (const Json &jr : js["results"].items) {
             Row r;
