@@ -69,7 +69,10 @@ void Params::set_int(int32_t key, int64_t value) {
                    std::to_string(count - 1) + ")");
         builder = info->value;
         if (info->preset) aac = info->preset();
-        if (builder == AACBVH_BUILDER_AAC) aac.top_from = 0; // the paper's f(n) with the values in force
+        if (builder == AACBVH_BUILDER_AAC) { // the paper's AAC with the values in force
+            aac.top_from = 0;
+            aac.root_split_levels = 0;
+        }
         break;
     }
     case AACBVH_PARAM_AAC_DELTA:
@@ -77,6 +80,7 @@ void Params::set_int(int32_t key, int64_t value) {
         aac.delta = uint32_t(value);
         builder = AACBVH_BUILDER_AAC;
         aac.top_from = 0;
+        aac.root_split_levels = 0;
         break;
     case AACBVH_PARAM_MAX_LEAF_SIZE:
         if (value < 1 || value > (1 << 16)) reject("max leaf size must be in [1, 65536], got " + std::to_string(value));
@@ -120,12 +124,14 @@ void Params::set_float(int32_t key, double value) {
         aac.c = value;
         builder = AACBVH_BUILDER_AAC;
         aac.top_from = 0;
+        aac.root_split_levels = 0;
         break;
     case AACBVH_PARAM_AAC_ALPHA:
         if (!(value > 0.0 && value <= 1.0)) reject("AAC alpha must be in (0, 1], got " + std::to_string(value));
         aac.alpha = value;
         builder = AACBVH_BUILDER_AAC;
         aac.top_from = 0;
+        aac.root_split_levels = 0;
         break;
     case AACBVH_PARAM_TRAVERSAL_COST:
         if (!(value > 0.0 && value <= kMaxCost))

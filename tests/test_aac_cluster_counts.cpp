@@ -1,9 +1,9 @@
 // AAC's cluster counts f(n) (build/aac/aac_builder.h) on hand-computed values:
 // the paper's f(n) = ceil(c n^alpha) clamped to [1, n], the top stage that
 // takes other c and alpha from `top_from` primitives up, the presets
-// (AAC-Fast has HQ's counts from 1,024 up, HQ has no top stage), and the
-// parameters: AACBVH_BUILDER_AAC, or setting delta, c or alpha, always builds
-// with the paper's single f(n).
+// (AAC-Fast has HQ's counts from 1,024 up, HQ has no top stage; both split
+// the root by SAH), and the parameters: AACBVH_BUILDER_AAC, or setting delta,
+// c or alpha, always builds the paper's AAC (single f(n), greedy root).
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -52,6 +52,10 @@ void test_presets(void **) {
     const AacConfig hq = aacbvh::find_builder(AACBVH_BUILDER_AAC_HQ)->preset();
     const AacConfig fast = aacbvh::find_builder(AACBVH_BUILDER_AAC_FAST)->preset();
     assert_int_equal(hq.top_from, 0);
+    // Both presets split the root's clusters by SAH once; the paper's AAC never.
+    assert_int_equal(hq.root_split_levels, 1);
+    assert_int_equal(fast.root_split_levels, 1);
+    assert_int_equal(AacConfig{}.root_split_levels, 0);
     // Fast: the paper's delta, c and alpha below 1,024 primitives, HQ's above.
     assert_int_equal(fast.delta, 4);
     assert_true(std::fabs(fast.c - std::pow(4.0, 0.7) / 2.0) < 1e-15 && fast.alpha == 0.3);
@@ -69,6 +73,7 @@ void test_params_drop_the_top_stage(void **) {
     assert_int_equal(p.aac.top_from, 1024);
     p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC);     // the values in force, the paper's f(n)
     assert_int_equal(p.aac.top_from, 0);
+    assert_int_equal(p.aac.root_split_levels, 0);
     assert_int_equal(p.aac.delta, 4);
     assert_true(p.aac.alpha == 0.3);
 
@@ -80,9 +85,13 @@ void test_params_drop_the_top_stage(void **) {
         else p.set_float(key, key == AACBVH_PARAM_AAC_C ? p.aac.c : 0.3);
         assert_int_equal(p.builder, AACBVH_BUILDER_AAC);
         assert_int_equal(p.aac.top_from, 0);
+        assert_int_equal(p.aac.root_split_levels, 0);
     }
     p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_HQ);
     assert_int_equal(p.aac.top_from, 0);
+    assert_int_equal(p.aac.root_split_levels, 1);
+    p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC);
+    assert_int_equal(p.aac.root_split_levels, 0);
 }
 
 } // namespace

@@ -279,17 +279,21 @@ static void test_presets_sah_close_to_exact(void **state) {
         }
 }
 
-/* A tree's nodes, from a build of `n` boxes with the builder (and, for
- * AACBVH_BUILDER_AAC, delta, c, alpha) given; malloc'd, *count set. */
-static aacbvh_node *build_nodes(const float *boxes, size_t n, int builder, size_t *count) {
+/* A tree's nodes, from a build of `n` boxes with the builder given, or for
+ * AACBVH_BUILDER_AAC the paper's values of the preset `paper_of`; malloc'd,
+ * *count set. */
+static aacbvh_node *build_nodes(const float *boxes, size_t n, int builder, int paper_of, size_t *count) {
     aacbvh_bvh *bvh = NULL;
     aacbvh_stats st;
     aacbvh_node *nodes;
+    const int fast = paper_of == AACBVH_BUILDER_AAC_FAST;
     TS_EXPECT_STATUS(aacbvh_bvh_create(g_ctx, &bvh), AACBVH_OK);
     if (builder == AACBVH_BUILDER_AAC) {
-        TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_AAC_DELTA, 4), AACBVH_OK);
-        TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_AAC_C, pow(4.0, 0.7) / 2.0), AACBVH_OK);
-        TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_AAC_ALPHA, 0.3), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_AAC_DELTA, fast ? 4 : 20), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_AAC_C,
+                                                    fast ? pow(4.0, 0.7) / 2.0 : pow(20.0, 0.6) / 2.0),
+                         AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_AAC_ALPHA, fast ? 0.3 : 0.4), AACBVH_OK);
     } else {
         TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, builder), AACBVH_OK);
     }
@@ -305,27 +309,29 @@ static aacbvh_node *build_nodes(const float *boxes, size_t n, int builder, size_
     return nodes;
 }
 
-/* AAC-Fast takes AAC-HQ's cluster counts from 1,024 primitives up (issue 17);
- * the paper's fast preset stays available as AACBVH_BUILDER_AAC with its
- * values (delta 4, c = 4^0.7 / 2, alpha 0.3). Below 1,024 boxes the two build
- * the same tree; above, the top differs. */
-static void test_fast_top_stage_and_paper_values(void **state) {
+/* The presets are ours now (issue 17: the root split by SAH, and AAC-Fast
+ * with AAC-HQ's cluster counts from 1,024 primitives up); the paper's AAC
+ * stays available as AACBVH_BUILDER_AAC with its values, and builds other
+ * trees (test_presets_sah_close_to_exact checks the presets' trees). */
+static void test_presets_and_paper_values(void **state) {
     const size_t sizes[] = {1000, 6000};
-    size_t si;
+    const int presets[] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_AAC_FAST};
+    size_t si, pi;
     (void)state;
-    for (si = 0; si < 2; ++si) {
-        const size_t n = sizes[si];
-        float *boxes = ts_random_boxes(n, 0.05f, 4242 + n);
-        size_t nf = 0, np = 0;
-        aacbvh_node *fast = build_nodes(boxes, n, AACBVH_BUILDER_AAC_FAST, &nf);
-        aacbvh_node *paper = build_nodes(boxes, n, AACBVH_BUILDER_AAC, &np);
-        const int same = nf == np && memcmp(fast, paper, nf * sizeof *fast) == 0;
-        if (n < 1024 && !same) fail_msg("n = %zu: AAC-Fast and the paper's fast values differ below 1,024", n);
-        if (n >= 1024 && same) fail_msg("n = %zu: AAC-Fast builds the paper's tree above 1,024", n);
-        free(fast);
-        free(paper);
-        free(boxes);
-    }
+    for (si = 0; si < 2; ++si)
+        for (pi = 0; pi < 2; ++pi) {
+            const size_t n = sizes[si];
+            float *boxes = ts_random_boxes(n, 0.05f, 4242 + n);
+            size_t na = 0, nb = 0;
+            aacbvh_node *ours = build_nodes(boxes, n, presets[pi], 0, &na);
+            aacbvh_node *paper = build_nodes(boxes, n, AACBVH_BUILDER_AAC, presets[pi], &nb);
+            if (na == 0 || nb == 0) fail_msg("n = %zu: an empty tree", n);
+            if (na == nb && memcmp(ours, paper, na * sizeof *ours) == 0)
+                fail_msg("n = %zu, preset %d: the preset builds the paper's tree", n, presets[pi]);
+            free(ours);
+            free(paper);
+            free(boxes);
+        }
 }
 
 int main(void) {
@@ -335,7 +341,7 @@ int main(void) {
         cmocka_unit_test(test_locally_ordered_matches_greedy),
         cmocka_unit_test(test_ploc_full_radius_matches_greedy),
         cmocka_unit_test(test_presets_sah_close_to_exact),
-        cmocka_unit_test(test_fast_top_stage_and_paper_values),
+        cmocka_unit_test(test_presets_and_paper_values),
     };
     return cmocka_run_group_tests(tests, setup_group, teardown_group);
 }

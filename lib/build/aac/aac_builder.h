@@ -30,6 +30,10 @@ struct AacConfig {
     uint32_t top_from = 0;
     double top_c = 0.0;
     double top_alpha = 0.4;
+    /// The root range splits the clusters it receives top-down by SAH for this
+    /// many levels (build/aac/top_split.h) and merges each part greedily; 0:
+    /// the paper's greedy merge down to one cluster. Ours (issue 17).
+    uint32_t root_split_levels = 0;
 };
 
 /// f(n) = ceil(c * n^alpha), or ceil(top_c * n^top_alpha) when top_from != 0
