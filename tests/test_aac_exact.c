@@ -279,6 +279,61 @@ static void test_presets_sah_close_to_exact(void **state) {
         }
 }
 
+/* A tree's nodes, from a build of `n` boxes with the builder given, or for
+ * AACBVH_BUILDER_AAC the paper's values of the preset `paper_of`; malloc'd,
+ * *count set. */
+static aacbvh_node *build_nodes(const float *boxes, size_t n, int builder, int paper_of, size_t *count) {
+    aacbvh_bvh *bvh = NULL;
+    aacbvh_stats st;
+    aacbvh_node *nodes;
+    const int fast = paper_of == AACBVH_BUILDER_AAC_FAST;
+    TS_EXPECT_STATUS(aacbvh_bvh_create(g_ctx, &bvh), AACBVH_OK);
+    if (builder == AACBVH_BUILDER_AAC) {
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_AAC_DELTA, fast ? 4 : 20), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_AAC_C,
+                                                    fast ? pow(4.0, 0.7) / 2.0 : pow(20.0, 0.6) / 2.0),
+                         AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_float(bvh, AACBVH_PARAM_AAC_ALPHA, fast ? 0.3 : 0.4), AACBVH_OK);
+    } else {
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, builder), AACBVH_OK);
+    }
+    TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(bvh, boxes, n, 24), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+    st.struct_size = sizeof st;
+    TS_EXPECT_STATUS(aacbvh_bvh_get_stats(bvh, &st), AACBVH_OK);
+    *count = (size_t)st.node_count;
+    nodes = (aacbvh_node *)malloc(*count * sizeof *nodes);
+    assert_non_null(nodes);
+    TS_EXPECT_STATUS(aacbvh_bvh_get_nodes(bvh, 0, *count, nodes), AACBVH_OK);
+    aacbvh_bvh_destroy(bvh);
+    return nodes;
+}
+
+/* The presets are ours now (issue 17: the root split by SAH, and AAC-Fast
+ * with AAC-HQ's cluster counts from 1,024 primitives up); the paper's AAC
+ * stays available as AACBVH_BUILDER_AAC with its values, and builds other
+ * trees (test_presets_sah_close_to_exact checks the presets' trees). */
+static void test_presets_and_paper_values(void **state) {
+    const size_t sizes[] = {1000, 6000};
+    const int presets[] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_AAC_FAST};
+    size_t si, pi;
+    (void)state;
+    for (si = 0; si < 2; ++si)
+        for (pi = 0; pi < 2; ++pi) {
+            const size_t n = sizes[si];
+            float *boxes = ts_random_boxes(n, 0.05f, 4242 + n);
+            size_t na = 0, nb = 0;
+            aacbvh_node *ours = build_nodes(boxes, n, presets[pi], 0, &na);
+            aacbvh_node *paper = build_nodes(boxes, n, AACBVH_BUILDER_AAC, presets[pi], &nb);
+            if (na == 0 || nb == 0) fail_msg("n = %zu: an empty tree", n);
+            if (na == nb && memcmp(ours, paper, na * sizeof *ours) == 0)
+                fail_msg("n = %zu, preset %d: the preset builds the paper's tree", n, presets[pi]);
+            free(ours);
+            free(paper);
+            free(boxes);
+        }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_reference_sanity),
@@ -286,6 +341,7 @@ int main(void) {
         cmocka_unit_test(test_locally_ordered_matches_greedy),
         cmocka_unit_test(test_ploc_full_radius_matches_greedy),
         cmocka_unit_test(test_presets_sah_close_to_exact),
+        cmocka_unit_test(test_presets_and_paper_values),
     };
     return cmocka_run_group_tests(tests, setup_group, teardown_group);
 }

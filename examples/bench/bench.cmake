@@ -79,12 +79,25 @@ if(AACBVH_BUILD_TESTS)
   # Smoke test: a small generated scene, one run, every output written and read
   # back (--self-check); no timing is judged.
   add_test(NAME bench_smoke
-    COMMAND aacbvh-bench --scenes procedural-small --runs 1 --rays 32 --threads 1,2 --self-check
+    COMMAND aacbvh-bench --scenes procedural-small --runs 1 --rays 32 --views 6 --view-rays 16x12 --threads 1,2
+            --self-check
             --csv ${CMAKE_CURRENT_BINARY_DIR}/bench_smoke.csv
             --json ${CMAKE_CURRENT_BINARY_DIR}/bench_smoke.json
             --svg ${CMAKE_CURRENT_BINARY_DIR}/bench_smoke.svg
             --markdown ${CMAKE_CURRENT_BINARY_DIR}/bench_smoke.md)
   set_tests_properties(bench_smoke PROPERTIES TIMEOUT 300)
+
+  # The in-scene views' table: the console prints it with every column, one
+  # line per builder and ray kind (--self-check checks its figures: worst views
+  # no better than the mean, sweep SAH exactly 1 against itself), and the CSV
+  # carries the view and overlap columns.
+  add_test(NAME bench_views_table
+    COMMAND ${CMAKE_COMMAND}
+            -DPROGRAM=$<TARGET_FILE:aacbvh-bench>
+            "-DARGS=--scenes procedural-small --runs 1 --rays 8 --views 3 --view-rays 8 --builders sweep-sah,aac-hq,aac-fast --no-embree --self-check --csv ${CMAKE_CURRENT_BINARY_DIR}/bench_views.csv"
+            "-DEXPECT=in-scene views: 3 of 8x8 primary rays.*builder +rays +SAH +overlap A/V +boxes +tris +rel\\. cost +Mrays/s +rel\\. time\n+Sweep SAH +primary +[0-9.]+ +[0-9.]+/[0-9.]+ +[0-9.]+/[0-9.]+ +[0-9.]+/[0-9.]+ +1\\.00/1\\.00 .*AAC-Fast +primary"
+            -P ${_bench_dir}/run_expect.cmake)
+  set_tests_properties(bench_views_table PROPERTIES TIMEOUT 300)
 
   # Smoke test of aacbvh-hit-accuracy: a small generated scene; it must exit 0
   # and print the accuracy table's header (run_expect.cmake checks both, as

@@ -117,6 +117,8 @@ struct Options {
     std::vector<const BuilderInfo *> builders;
     int runs = 5;
     uint32_t width = 256, height = 256;
+    uint32_t views = 48;                        ///< --views: in-scene views per scene (0: none)
+    uint32_t view_width = 96, view_height = 96; ///< --view-rays: primary rays per view
     std::vector<uint32_t> threads{1};
     uint64_t lo_max_triangles = 400000;
     bool embree = true;
@@ -151,6 +153,10 @@ void usage(FILE *out) {
         "  --runs N          builds per builder, scene and thread count (default 5);\n"
         "                    also the timed passes over the rays\n"
         "  --rays N|WxH      primary rays: an N x N image (default 256) or W x H\n"
+        "  --views N         in-scene views per scene (default 48; 0 = none): seeded cameras\n"
+        "                    on random surface points looking away from them, with primary,\n"
+        "                    shadow and diffuse rays; mean and worst view per builder\n"
+        "  --view-rays N|WxH primary rays per view (default 96x96)\n"
         "  --threads LIST    thread counts to time builds with, e.g. 1,2 (default 1);\n"
         "                    the first is the tables'; trees and ray timing use 1 thread\n"
         "  --lo-max-triangles N  run locally-ordered only on scenes of at most N\n"
@@ -221,19 +227,26 @@ bool parse_args(int argc, char **argv, Options &opt) {
                 return false;
             }
             opt.runs = int(v);
-        } else if (a == "--rays") {
-            const char *s = next("--rays");
+        } else if (a == "--views") {
+            const char *s = next("--views");
+            if (!s || !parse_uint(s, v) || v > 100000) {
+                std::fprintf(stderr, "aacbvh-bench: --views takes 0 to 100000\n");
+                return false;
+            }
+            opt.views = uint32_t(v);
+        } else if (a == "--rays" || a == "--view-rays") {
+            const char *s = next(a.c_str());
             if (!s) return false;
             const std::vector<std::string> wh = split(s, 'x');
             uint64_t w = 0, h = 0;
             if (wh.size() == 1 && parse_uint(wh[0].c_str(), w)) h = w;
             else if (wh.size() != 2 || !parse_uint(wh[0].c_str(), w) || !parse_uint(wh[1].c_str(), h)) w = 0;
             if (w < 1 || h < 1 || w > 16384 || h > 16384) {
-                std::fprintf(stderr, "aacbvh-bench: --rays takes N or WxH, 1 to 16384\n");
+                std::fprintf(stderr, "aacbvh-bench: %s takes N or WxH, 1 to 16384\n", a.c_str());
                 return false;
             }
-            opt.width = uint32_t(w);
-            opt.height = uint32_t(h);
+            (a == "--rays" ? opt.width : opt.view_width) = uint32_t(w);
+            (a == "--rays" ? opt.height : opt.view_height) = uint32_t(h);
         } else if (a == "--threads") {
             const char *s = next("--threads");
             if (!s) return false;
@@ -416,6 +429,39 @@ void measure_tree(const FlatTree &tree, const Scene &scene, const RaySets &rays,
         row.steps[k] = all[k]->rays ? all[k]->steps : kNaN;
     }
     if (std::isnan(row.sah)) row.sah = sah_cost(tree);
+    const Overlap o = overlap_of(tree);
+    row.overlap_area = o.area;
+    row.overlap_volume = o.volume;
+}
+
+/// The in-scene views' counts (and, given the library's tree, trace times)
+/// into row.view_samples: one sample per view and ray kind.
+void measure_views(const FlatTree &tree, const Scene &scene, const std::vector<RaySets> &views, aacbvh_bvh *bvh,
+                   int runs, Row &row) {
+    const CostTracer tracer(tree, scene.vertices.data(), scene.indices.data(), scene.triangle_count());
+    std::vector<aacbvh_hit> hits;
+    std::vector<uint8_t> occluded;
+    for (int k = 0; k < kRayKindCount; ++k) row.view_samples[k].assign(views.size(), ViewSample{});
+    for (size_t v = 0; v < views.size(); ++v) {
+        for (int k = 0; k < kRayKindCount; ++k) {
+            const std::vector<aacbvh_ray> &rays = views[v].rays[k];
+            ViewSample &out = row.view_samples[k][v];
+            out.rays = rays.size();
+            if (rays.empty()) continue;
+            const CostSummary c = k == kShadow ? measure_any(tracer, rays) : measure_closest(tracer, rays);
+            out.steps = c.steps;
+            out.tests = c.tests;
+            if (!bvh) continue;
+            hits.resize(rays.size());
+            occluded.resize(rays.size());
+            const double mrays = time_rays(rays.size(), runs, [&] {
+                return k == kShadow
+                           ? aacbvh_bvh_occluded(bvh, rays.data(), occluded.data(), rays.size()) == AACBVH_OK
+                           : aacbvh_bvh_intersect(bvh, rays.data(), hits.data(), rays.size()) == AACBVH_OK;
+            });
+            out.seconds = mrays > 0 ? rays.size() * 1e-6 / mrays : kNaN;
+        }
+    }
 }
 
 /// Compares the counting tracer's closest hits with the library's: a wrong tree
@@ -492,6 +538,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
     rays.width = opt.width;
     rays.height = opt.height;
     rays.rays[kPrimary] = make_primary_rays(res.camera, opt.width, opt.height);
+    std::vector<RaySets> views;  // the in-scene views' rays, made the same way
     {
         std::string err;
         BvhPtr ref = make_bvh(ctx1, scene, AACBVH_BUILDER_AAC_HQ, opt, err);
@@ -505,7 +552,40 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
                                 bounds.diagonal(), 0x5EED, rays.rays[kShadow], rays.rays[kDiffuse]);
             for (const aacbvh_hit &h : hits) rays.primary_hits += h.prim_id != AACBVH_INVALID_ID;
             if (!opt.preview_dir.empty()) write_preview(opt.preview_dir, scene, res.camera, rays, hits);
+            const std::vector<Camera> cameras =
+                make_views(scene.vertices, scene.indices, opt.views, res.camera.light, bounds.diagonal(), 0x51E3);
+            for (size_t v = 0; v < cameras.size(); ++v) {
+                RaySets vr;
+                vr.width = opt.view_width;
+                vr.height = opt.view_height;
+                vr.rays[kPrimary] = make_primary_rays(cameras[v], opt.view_width, opt.view_height);
+                std::vector<aacbvh_hit> vhits(vr.rays[kPrimary].size());
+                if (aacbvh_bvh_intersect(ref.get(), vr.rays[kPrimary].data(), vhits.data(), vhits.size()) !=
+                    AACBVH_OK) {
+                    check.fail(scene.name + ": cannot trace a view's primary rays");
+                    views.clear();
+                    break;
+                }
+                make_secondary_rays(vr.rays[kPrimary], vhits, scene.vertices, scene.indices, cameras[v],
+                                    bounds.diagonal(), 0x5EED + v, vr.rays[kShadow], vr.rays[kDiffuse]);
+                for (const aacbvh_hit &h : vhits) vr.primary_hits += h.prim_id != AACBVH_INVALID_ID;
+                views.push_back(std::move(vr));
+            }
         }
+    }
+    res.views = uint32_t(views.size());
+    if (!views.empty()) {
+        res.view_width = opt.view_width;
+        res.view_height = opt.view_height;
+        uint64_t hit = 0;
+        for (const RaySets &v : views) {
+            hit += v.primary_hits;
+            for (int k = 0; k < kRayKindCount; ++k) res.view_ray_counts[k] += v.rays[k].size();
+        }
+        std::fprintf(stderr, "[%s] %zu in-scene views, %llu of %llu primary rays hit\n", scene.name.c_str(),
+                     views.size(), (unsigned long long)hit, (unsigned long long)res.view_ray_counts[kPrimary]);
+    } else if (opt.views > 0) {
+        check.fail(scene.name + ": no in-scene view could be made");
     }
     for (int k = 0; k < kRayKindCount; ++k) res.ray_counts[k] = rays.rays[k].size();
     std::fprintf(stderr, "[%s] %zu triangles, %llu of %zu primary rays hit\n", scene.name.c_str(),
@@ -598,6 +678,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
                         check.fail(format_check(scene.name, b->label.c_str(), own_sah, stats.sah_cost));
                     std::vector<CountedHit> counted;
                     measure_tree(tree, scene, rays, row, &counted, check);
+                    measure_views(tree, scene, views, bvh, opt.runs, row);
                     std::vector<aacbvh_hit> hits(rays.rays[kPrimary].size());
                     std::vector<uint8_t> occluded(rays.rays[kShadow].size());
                     const auto &rp = rays.rays[kPrimary], &rs = rays.rays[kShadow], &rd = rays.rays[kDiffuse];
@@ -635,6 +716,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
                 row.bytes_per_triangle = res.triangles ? double(flat_tree_bytes(tree)) / res.triangles : kNaN;
                 row.note = "tree converted to aacbvh nodes; build time is rtcBuildBVH alone";
                 measure_tree(tree, scene, rays, row, nullptr, check);
+                measure_views(tree, scene, views, nullptr, opt.runs, row);
             }
         } else {  // embree-scene
             for (size_t ti = 0; ti < opt.threads.size() && row.status == "ok"; ++ti) {
@@ -666,6 +748,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
         for (Row &r : res.rows)
             for (int k = 0; k < kRayKindCount; ++k) r.rel_cost[k] = r.cost[k] / ref.cost[k];
     }
+    res.summarise_views();
     return res;
 }
 
@@ -775,6 +858,34 @@ int main(int argc, char **argv) {
             for (const Row &r : s.rows)
                 if (r.status == "ok" && r.builder != "embree-scene" && !(r.cost[kPrimary] > 0))
                     check.fail(s.name + ", " + r.label + ": no ray cost");
+        for (const SceneResult &s : results) {
+            for (const Row &r : s.rows) {
+                if (r.status != "ok" || r.builder == "embree-scene") continue;
+                // Overlap: a sum of non-negative shares (files from before it was measured have none).
+                if (opt.replot.empty() &&
+                    (!(r.overlap_area >= 0) || !(r.overlap_volume >= 0 || std::isnan(r.overlap_volume))))
+                    check.fail(s.name + ", " + r.label + ": no overlap figure");
+                if (s.views == 0) continue;
+                const bool library = r.builder.rfind("embree", 0) != 0;
+                for (int k = 0; k < kRayKindCount; ++k) {
+                    const ViewFigures &v = r.views[k];
+                    if (k != kPrimary && !(s.view_ray_counts[k] > 0)) continue;
+                    const std::string what = s.name + ", " + r.label + ", " + ray_kind_name(k) + " views: ";
+                    // Every view tests the root's box; the worst view is no better than the mean.
+                    if (!(v.steps_mean >= 1) || !(v.steps_worst >= v.steps_mean) || !(v.tests_worst >= v.tests_mean))
+                        check.fail(what + "no ray cost, or a worst view better than the mean");
+                    if (!(v.rel_cost_worst >= v.rel_cost_mean) || !(v.rel_cost_mean > 0))
+                        check.fail(what + "no cost relative to sweep SAH");
+                    if (library && (!(v.mrays_mean > 0) || !(v.mrays_worst <= v.mrays_mean * (1 + 1e-9)) ||
+                                    !(v.rel_time_worst >= v.rel_time_mean)))
+                        check.fail(what + "no timing, or a slowest view faster than the mean");
+                    // Sweep SAH against itself: exactly 1 on every view.
+                    if (r.builder == "sweep-sah" && (v.rel_cost_mean != 1.0 || v.rel_cost_worst != 1.0 ||
+                                                     std::fabs(v.rel_time_mean - 1.0) > 1e-12))
+                        check.fail(what + "sweep SAH is not 1 against itself");
+                }
+            }
+        }
         std::fprintf(stderr, "self-check: %s\n", check.failures ? "FAILED" : "passed");
         if (check.failures) status = 1;
     } else if (check.failures) {

@@ -124,6 +124,36 @@ double sah_cost(const FlatTree &tree, double ct, double ci) {
     return sum / root_area;
 }
 
+Overlap overlap_of(const FlatTree &tree) {
+    Overlap out;
+    if (tree.nodes.empty()) return out;
+    const aacbvh_node &root = tree.nodes[0];
+    auto volume = [](const float lo[3], const float hi[3]) {
+        double v = 1.0;
+        for (int k = 0; k < 3; ++k) v *= std::max(0.0, double(hi[k]) - double(lo[k]));
+        return v;
+    };
+    const double root_area = box_area(root.lower, root.upper), root_volume = volume(root.lower, root.upper);
+    double area = 0.0, vol = 0.0;
+    for (const aacbvh_node &node : tree.nodes) {
+        if (node.count != 0 || size_t(node.first) + 1 >= tree.nodes.size()) continue;
+        const aacbvh_node &l = tree.nodes[node.first], &r = tree.nodes[node.first + 1];
+        float lo[3], hi[3];
+        bool empty = false;
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::max(l.lower[k], r.lower[k]);
+            hi[k] = std::min(l.upper[k], r.upper[k]);
+            empty = empty || !(lo[k] <= hi[k]);
+        }
+        if (empty) continue;  // disjoint on some axis (touching boxes overlap in a face: area, no volume)
+        area += box_area(lo, hi);
+        vol += volume(lo, hi);
+    }
+    out.area = root_area > 0.0 ? area / root_area : std::numeric_limits<double>::quiet_NaN();
+    out.volume = root_volume > 0.0 ? vol / root_volume : std::numeric_limits<double>::quiet_NaN();
+    return out;
+}
+
 CostTracer::CostTracer(const FlatTree &tree, const float *vertices, const uint32_t *indices,
                        size_t triangle_count)
     : tree_(tree), tris_(triangle_count) {

@@ -39,6 +39,26 @@ bool check_tree(const FlatTree &tree, size_t triangle_count, std::string &err);
 /// SAH cost with the header's formula: (ct * sum A(inner) + ci * sum A(leaf) * N(leaf)) / A(root).
 double sah_cost(const FlatTree &tree, double ct = 1.2, double ci = 1.0);
 
+/// How much the two children of inner nodes overlap, two ways (issue 17).
+/// SAH charges a node by its own area only, so two children that overlap
+/// cost no more than two that do not; yet a ray through the overlap must enter
+/// both, and a ray that starts inside it (a camera or a bounce inside the
+/// scene) enters both at distance tmin, so their order cannot separate them.
+///  - area: sum over inner nodes of SA(left box ∩ right box) / SA(root), the
+///    SAH-like expectation of how many inner nodes a random line through the
+///    root crosses in both children at once (0 when no two siblings overlap);
+///  - volume: sum over inner nodes of V(left ∩ right) / V(root), how many
+///    inner nodes a uniformly random point of the root's box lies in both
+///    children of: the chance that an origin inside the scene ties them.
+/// NaN when the root's area (or volume) is 0. End-point overlap (Aila, Karras,
+/// Laine, HPG 2013) would weigh the overlap by where rays end, on the
+/// triangles; these are its cheap, geometry-only relatives.
+struct Overlap {
+    double area = 0.0;
+    double volume = 0.0;
+};
+Overlap overlap_of(const FlatTree &tree);
+
 /// Bytes the tree takes in the public layout (32 per node, 4 per primitive slot).
 inline uint64_t flat_tree_bytes(const FlatTree &tree) {
     return tree.nodes.size() * sizeof(aacbvh_node) + tree.prim_indices.size() * sizeof(uint32_t);

@@ -183,4 +183,61 @@ void make_secondary_rays(const std::vector<aacbvh_ray> &primary, const std::vect
     }
 }
 
+std::vector<Camera> make_views(const std::vector<float> &vertices, const std::vector<uint32_t> &indices,
+                               uint32_t count, const float light[3], float scene_diagonal, uint64_t seed) {
+    std::vector<Camera> views;
+    const size_t triangles = indices.size() / 3;
+    // Running sums of the triangles' areas (doubled), in double so that large
+    // scenes do not lose their small triangles to rounding.
+    std::vector<double> cumulative(triangles);
+    double total = 0.0;
+    auto corners = [&](size_t t, Vec &a, Vec &b, Vec &c) {
+        a = make(&vertices[3 * size_t(indices[3 * t])]);
+        b = make(&vertices[3 * size_t(indices[3 * t + 1])]);
+        c = make(&vertices[3 * size_t(indices[3 * t + 2])]);
+    };
+    for (size_t t = 0; t < triangles; ++t) {
+        Vec a, b, c;
+        corners(t, a, b, c);
+        const Vec n = cross(b - a, c - a);
+        const double area = std::sqrt(double(dot(n, n)));
+        total += std::isfinite(area) ? area : 0.0;
+        cumulative[t] = total;
+    }
+    if (!(total > 0.0)) return views;
+    SplitMix64 rng(seed);
+    const float offset = 1e-3f * scene_diagonal;
+    // Bounded: a triangle of positive area whose normal still rounds to zero in
+    // float is tried again, but never forever.
+    for (uint64_t attempt = 0; views.size() < count && attempt < 100 * uint64_t(count); ++attempt) {
+        const double pick = rng.uniform() * total;
+        const size_t t = size_t(std::upper_bound(cumulative.begin(), cumulative.end(), pick) - cumulative.begin());
+        if (t >= triangles) continue;
+        Vec a, b, c;
+        corners(t, a, b, c);
+        const Vec n = normalize(cross(b - a, c - a));
+        if (dot(n, n) == 0.0f) continue;
+        // A uniform point on the triangle: fold the unit square's upper half back.
+        float u = rng.uniform_float(), v = rng.uniform_float();
+        if (u + v > 1.0f) {
+            u = 1.0f - u;
+            v = 1.0f - v;
+        }
+        const Vec eye = a + (b - a) * u + (c - a) * v + n * offset;
+        float d[3];
+        rng.direction(d);
+        Vec dir = make(d);
+        if (dot(dir, n) < 0.0f) dir = dir * -1.0f;  // into the hemisphere the normal faces
+        Camera cam;
+        cam.eye[0] = eye.x; cam.eye[1] = eye.y; cam.eye[2] = eye.z;
+        cam.target[0] = eye.x + dir.x; cam.target[1] = eye.y + dir.y; cam.target[2] = eye.z + dir.z;
+        cam.up[0] = 0.0f; cam.up[1] = 1.0f; cam.up[2] = 0.0f;
+        cam.fov_y_degrees = 60.0f;
+        for (int k = 0; k < 3; ++k) cam.light[k] = light[k];
+        cam.source = "view";
+        views.push_back(cam);
+    }
+    return views;
+}
+
 }  // namespace bench

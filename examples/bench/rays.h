@@ -57,4 +57,15 @@ void make_secondary_rays(const std::vector<aacbvh_ray> &primary, const std::vect
                          const Camera &camera, float scene_diagonal, uint64_t seed,
                          std::vector<aacbvh_ray> &shadow, std::vector<aacbvh_ray> &diffuse);
 
+/// In-scene views (issue 17: rays that start inside the scene): `count`
+/// cameras standing on the scene's surfaces. Each picks a triangle with
+/// probability proportional to its area and a uniform point on it, stands
+/// `1e-3 * scene_diagonal` off it along the triangle's normal (the side its
+/// winding faces) and looks in a direction uniform over the hemisphere around
+/// that normal (so away from the surface it stands on), 60 degree field of
+/// view, the light at `light`. Fixed by the seed: every builder and every run
+/// sees the same views. Empty when the scene has no triangle of non-zero area.
+std::vector<Camera> make_views(const std::vector<float> &vertices, const std::vector<uint32_t> &indices,
+                               uint32_t count, const float light[3], float scene_diagonal, uint64_t seed);
+
 }  // namespace bench

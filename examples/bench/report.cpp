@@ -32,6 +32,59 @@ double Row::mean_rel_cost() const {
     return n == kRayKindCount ? sum / n : kNaN;
 }
 
+void SceneResult::summarise_views() {
+    const Row *sweep = find("sweep-sah");
+    for (Row &r : rows) {
+        for (int k = 0; k < kRayKindCount; ++k) {
+            const std::vector<ViewSample> &v = r.view_samples[k];
+            const std::vector<ViewSample> *ref = sweep ? &sweep->view_samples[k] : nullptr;
+            ViewFigures f;
+            double steps = 0, tests = 0, seconds = 0, log_cost = 0, log_time = 0;
+            uint64_t rays = 0;
+            size_t n = 0, n_cost = 0, n_time = 0;
+            for (size_t i = 0; i < v.size(); ++i) {
+                const ViewSample &x = v[i];
+                if (x.rays == 0) continue;  // e.g. no shadow ray: every primary ray of the view missed
+                if (!std::isnan(x.steps)) {
+                    ++n;
+                    steps += x.steps;
+                    tests += x.tests;
+                    f.steps_worst = std::isnan(f.steps_worst) ? x.steps : std::max(f.steps_worst, x.steps);
+                    f.tests_worst = std::isnan(f.tests_worst) ? x.tests : std::max(f.tests_worst, x.tests);
+                }
+                if (x.seconds > 0) {
+                    seconds += x.seconds;
+                    rays += x.rays;
+                    const double m = x.rays / x.seconds * 1e-6;
+                    f.mrays_worst = std::isnan(f.mrays_worst) ? m : std::min(f.mrays_worst, m);
+                }
+                if (!ref || i >= ref->size()) continue;
+                const ViewSample &y = (*ref)[i];
+                const double c = (x.steps + x.tests) / (y.steps + y.tests);
+                if (c > 0 && std::isfinite(c)) {
+                    ++n_cost;
+                    log_cost += std::log(c);
+                    f.rel_cost_worst = std::isnan(f.rel_cost_worst) ? c : std::max(f.rel_cost_worst, c);
+                }
+                const double t = x.seconds / y.seconds;
+                if (t > 0 && std::isfinite(t)) {
+                    ++n_time;
+                    log_time += std::log(t);
+                    f.rel_time_worst = std::isnan(f.rel_time_worst) ? t : std::max(f.rel_time_worst, t);
+                }
+            }
+            if (n) {
+                f.steps_mean = steps / n;
+                f.tests_mean = tests / n;
+            }
+            if (seconds > 0) f.mrays_mean = rays / seconds * 1e-6;
+            if (n_cost) f.rel_cost_mean = std::exp(log_cost / n_cost);
+            if (n_time) f.rel_time_mean = std::exp(log_time / n_time);
+            r.views[k] = f;
+        }
+    }
+}
+
 const Row *SceneResult::find(const std::string &builder) const {
     for (const Row &r : rows)
         if (r.builder == builder && r.status == "ok") return &r;
@@ -141,15 +194,37 @@ bool read_file(const std::string &path, std::string &text, std::string &err) {
     return true;
 }
 
+/// The view figures by name, as the CSV and JSON write them.
+struct ViewField {
+    const char *name;
+    double ViewFigures::*member;
+};
+const ViewField kViewFields[] = {
+    {"steps_mean", &ViewFigures::steps_mean},         {"steps_worst", &ViewFigures::steps_worst},
+    {"tests_mean", &ViewFigures::tests_mean},         {"tests_worst", &ViewFigures::tests_worst},
+    {"mrays_mean", &ViewFigures::mrays_mean},         {"mrays_worst", &ViewFigures::mrays_worst},
+    {"rel_cost_mean", &ViewFigures::rel_cost_mean},   {"rel_cost_worst", &ViewFigures::rel_cost_worst},
+    {"rel_time_mean", &ViewFigures::rel_time_mean},   {"rel_time_worst", &ViewFigures::rel_time_worst},
+};
+constexpr size_t kViewFieldCount = sizeof(kViewFields) / sizeof(kViewFields[0]);
+
 const char *const kCsvColumns[] = {
     "scene", "triangles", "builder", "status", "threads", "runs", "build_ms_median", "build_ms_min",
     "build_ms_max", "speedup", "sah_cost", "cost_primary", "cost_shadow", "cost_diffuse", "rel_cost_primary",
     "rel_cost_shadow", "rel_cost_diffuse", "steps_primary", "steps_shadow", "steps_diffuse", "mrays_primary",
-    "mrays_shadow", "mrays_diffuse", "bytes_per_triangle", "note"};
+    "mrays_shadow", "mrays_diffuse", "bytes_per_triangle", "note", "overlap_area", "overlap_volume", "views"};
+
+/// The CSV's view columns, after kCsvColumns: view_<kind>_<field>.
+std::vector<std::string> csv_view_columns() {
+    std::vector<std::string> c;
+    for (int k = 0; k < kRayKindCount; ++k)
+        for (const ViewField &f : kViewFields) c.push_back(std::string("view_") + ray_kind_name(k) + "_" + f.name);
+    return c;
+}
 
 }  // namespace
 
-size_t csv_column_count() { return sizeof(kCsvColumns) / sizeof(kCsvColumns[0]); }
+size_t csv_column_count() { return sizeof(kCsvColumns) / sizeof(kCsvColumns[0]) + kRayKindCount * kViewFieldCount; }
 
 // ---------------------------------------------------------------------------
 // Console
@@ -180,6 +255,32 @@ void print_scene(FILE *out, const SceneResult &scene, const RunInfo &info) {
                      num(r.sah, 2).c_str(), cost.c_str(), rel.c_str(), mr.c_str(),
                      num(r.bytes_per_triangle, 1).c_str());
     }
+    if (scene.views > 0) {
+        std::fprintf(out,
+                     "in-scene views: %u of %ux%u primary rays; %llu primary, %llu shadow, %llu diffuse rays in all\n"
+                     "  (boxes = node boxes tested, tris = triangle tests, per ray: mean over views / worst view; "
+                     "rel. = to sweep SAH on the same view, geometric mean / worst)\n",
+                     scene.views, scene.view_width, scene.view_height,
+                     (unsigned long long)scene.view_ray_counts[kPrimary],
+                     (unsigned long long)scene.view_ray_counts[kShadow],
+                     (unsigned long long)scene.view_ray_counts[kDiffuse]);
+        std::fprintf(out, "%-16s %-8s %7s %13s %13s %13s %13s %15s %13s\n", "builder", "rays", "SAH",
+                     "overlap A/V", "boxes", "tris", "rel. cost", "Mrays/s", "rel. time");
+        for (const Row &r : scene.rows) {
+            if (r.status != "ok" || std::isnan(r.views[kPrimary].steps_mean)) continue;
+            for (int k = 0; k < kRayKindCount; ++k) {
+                const ViewFigures &v = r.views[k];
+                std::fprintf(out, "%-16s %-8s %7s %13s %13s %13s %13s %15s %13s\n", k ? "" : r.label.c_str(),
+                             ray_kind_name(k), k ? "" : num(r.sah, 1).c_str(),
+                             k ? "" : (num(r.overlap_area, 2) + "/" + num(r.overlap_volume, 2)).c_str(),
+                             (num(v.steps_mean, 1) + "/" + num(v.steps_worst, 1)).c_str(),
+                             (num(v.tests_mean, 1) + "/" + num(v.tests_worst, 1)).c_str(),
+                             (num(v.rel_cost_mean, 2) + "/" + num(v.rel_cost_worst, 2)).c_str(),
+                             (num(v.mrays_mean, 2) + "/" + num(v.mrays_worst, 2)).c_str(),
+                             (num(v.rel_time_mean, 2) + "/" + num(v.rel_time_worst, 2)).c_str());
+            }
+        }
+    }
     if (info.threads.size() > 1) {
         std::fprintf(out, "build ms by thread count:");
         for (uint32_t t : info.threads) std::fprintf(out, " %u", t);
@@ -205,7 +306,9 @@ void print_scene(FILE *out, const SceneResult &scene, const RunInfo &info) {
 bool write_csv(const std::string &path, const std::vector<SceneResult> &scenes, const RunInfo &info,
                std::string &err) {
     std::string text;
-    for (size_t i = 0; i < csv_column_count(); ++i) text += std::string(i ? "," : "") + kCsvColumns[i];
+    for (size_t i = 0; i < sizeof(kCsvColumns) / sizeof(kCsvColumns[0]); ++i)
+        text += std::string(i ? "," : "") + kCsvColumns[i];
+    for (const std::string &c : csv_view_columns()) text += "," + c;
     text += "\n";
     const uint32_t t0 = info.threads.empty() ? 1 : info.threads[0];
     for (const SceneResult &s : scenes) {
@@ -233,6 +336,11 @@ bool write_csv(const std::string &path, const std::vector<SceneResult> &scenes, 
                 for (int k = 0; k < kRayKindCount; ++k) f.push_back(n(r.mrays[k]));
                 f.push_back(n(r.bytes_per_triangle));
                 f.push_back(csv_field(r.note));
+                f.push_back(n(r.overlap_area));
+                f.push_back(n(r.overlap_volume));
+                f.push_back(std::to_string(s.views));
+                for (int k = 0; k < kRayKindCount; ++k)
+                    for (const ViewField &vf : kViewFields) f.push_back(n(r.views[k].*vf.member));
                 for (size_t i = 0; i < f.size(); ++i) text += (i ? "," : "") + f[i];
                 text += "\n";
             }
@@ -277,7 +385,16 @@ bool write_json(const std::string &path, const std::vector<SceneResult> &scenes,
         o << "      \"rays\": {";
         for (int k = 0; k < kRayKindCount; ++k)
             o << (k ? ", " : "") << "\"" << ray_kind_name(k) << "\": " << s.ray_counts[k];
-        o << "},\n      \"results\": [";
+        o << "},\n";
+        if (s.views > 0) {
+            // Only when views were measured, so that --replot of an older file writes it back unchanged.
+            o << "      \"views\": {\"count\": " << s.views << ", \"image\": [" << s.view_width << ", "
+              << s.view_height << "], \"rays\": {";
+            for (int k = 0; k < kRayKindCount; ++k)
+                o << (k ? ", " : "") << "\"" << ray_kind_name(k) << "\": " << s.view_ray_counts[k];
+            o << "}},\n";
+        }
+        o << "      \"results\": [";
         for (size_t ri = 0; ri < s.rows.size(); ++ri) {
             const Row &r = s.rows[ri];
             o << (ri ? "," : "") << "\n        {\"builder\": " << json_str(r.builder)
@@ -293,7 +410,22 @@ bool write_json(const std::string &path, const std::vector<SceneResult> &scenes,
               << json_num(r.bytes_per_triangle) << ",\n         \"ray_cost\": " << kinds(r.cost)
               << ",\n         \"ray_cost_relative_to_sweep_sah\": " << kinds(r.rel_cost)
               << ",\n         \"traversal_steps\": " << kinds(r.steps) << ",\n         \"mrays_per_s\": "
-              << kinds(r.mrays) << "}";
+              << kinds(r.mrays);
+            if (!std::isnan(r.overlap_area) || !std::isnan(r.overlap_volume))
+                o << ",\n         \"overlap\": {\"area\": " << json_num(r.overlap_area)
+                  << ", \"volume\": " << json_num(r.overlap_volume) << "}";
+            if (s.views > 0) {
+                o << ",\n         \"views\": {";
+                for (int k = 0; k < kRayKindCount; ++k) {
+                    o << (k ? ",\n                   " : "") << "\"" << ray_kind_name(k) << "\": {";
+                    for (size_t i = 0; i < kViewFieldCount; ++i)
+                        o << (i ? ", " : "") << "\"" << kViewFields[i].name
+                          << "\": " << json_num(r.views[k].*kViewFields[i].member);
+                    o << "}";
+                }
+                o << "}";
+            }
+            o << "}";
         }
         o << "\n      ]\n    }";
     }
@@ -378,7 +510,10 @@ bool write_svg(const std::string &path, const std::vector<SceneResult> &scenes, 
     struct Point {
         double x, y;   ///< build time and ray cost, each over sweep SAH's on the scene
         size_t builder;
+        double view_y;   ///< in-scene views' ray cost over sweep SAH's (NaN: none measured)
+        double overlap;  ///< the tree's overlap by volume (NaN: not measured)
     };
+    bool any_views = false;
     std::vector<std::string> builders;  // labels in first-seen order: marker b is builders[b]
     std::vector<std::vector<Point>> points(scenes.size());
     std::vector<double> reference_ms(scenes.size(), kNaN);
@@ -392,9 +527,21 @@ bool write_svg(const std::string &path, const std::vector<SceneResult> &scenes, 
             if (r.status != "ok" || !(x > 0.0) || std::isnan(y)) continue;
             const size_t b = std::find(builders.begin(), builders.end(), r.label) - builders.begin();
             if (b == builders.size()) builders.push_back(r.label);
-            points[si].push_back({x, y, b});
+            // The views' cost: the mean over the ray kinds (those the views had)
+            // of the geometric means over views, like the main y. Only files
+            // with views have it, so the plot of an older file does not change.
+            double vy = 0;
+            int kinds = 0;
+            for (int k = 0; k < kRayKindCount; ++k)
+                if (!std::isnan(r.views[k].rel_cost_mean)) vy += r.views[k].rel_cost_mean, ++kinds;
+            vy = scenes[si].views > 0 && kinds > 0 ? vy / kinds : kNaN;
+            points[si].push_back({x, y, b, vy, r.overlap_volume});
             xlo = std::min(xlo, x), xhi = std::max(xhi, x);
             ylo = std::min(ylo, y), yhi = std::max(yhi, y);
+            if (!std::isnan(vy)) {
+                any_views = true;
+                ylo = std::min(ylo, vy), yhi = std::max(yhi, vy);
+            }
         }
     }
     // Shared axes, so that panels compare at a glance: x from the 1-2-5 values
@@ -490,6 +637,18 @@ bool write_svg(const std::string &path, const std::vector<SceneResult> &scenes, 
             d += format("H%.1f", left + pw);
             o << "<path d=\"" << d << "\" fill=\"none\" stroke=\"black\" stroke-width=\"1.6\"/>\n";
         }
+        // In-scene views: an open circle at the views' cost, joined to the
+        // builder's marker, with the tree's overlap by volume beside it.
+        for (const Point &p : pts) {
+            if (std::isnan(p.view_y)) continue;
+            o << format("<path d=\"M%.1f %.1fV%.1f\" stroke=\"#999999\" stroke-dasharray=\"2,2\"/>\n", X(p.x),
+                        Y(p.y), Y(p.view_y));
+            o << format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"3.5\" fill=\"white\" stroke=\"#555555\"/>\n", X(p.x),
+                        Y(p.view_y));
+            if (!std::isnan(p.overlap))
+                o << format("<text x=\"%.1f\" y=\"%.1f\" font-size=\"8\" fill=\"#777777\">%.2f</text>\n",
+                            X(p.x) + 5, Y(p.view_y) + 3, p.overlap);
+        }
         for (const Point &p : pts) o << svg_marker(p.builder, X(p.x), Y(p.y)) << "\n";
         // The front's builders by name. Each label goes to the first of eight
         // places around its point that covers no marker and no label placed
@@ -546,6 +705,14 @@ bool write_svg(const std::string &path, const std::vector<SceneResult> &scenes, 
         o << format("<path d=\"M%.1f %.1fH%.1f\" stroke=\"#888888\" stroke-dasharray=\"5,4\"/>\n", lx, ly - 4,
                     lx + 14);
         o << format("<text x=\"%.1f\" y=\"%.1f\">sweep SAH = 1</text>\n", lx + 20, ly);
+        if (any_views) {
+            ly += 17;
+            o << format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"3.5\" fill=\"white\" stroke=\"#555555\"/>\n", lx + 7,
+                        ly - 4);
+            o << format("<text x=\"%.1f\" y=\"%.1f\">in-scene views' cost; beside it</text>\n", lx + 20, ly);
+            ly += 14;
+            o << format("<text x=\"%.1f\" y=\"%.1f\">the tree's overlap by volume</text>\n", lx + 20, ly);
+        }
     }
 
     // How to read it.
@@ -624,6 +791,19 @@ bool write_markdown(const std::string &path, const std::vector<SceneResult> &sce
          "and stk_temple; scans seen from outside), shadow rays from the primary hits to a point light (any hit; "
          "surfaces facing away from the light cast none), and one diffuse bounce per primary hit "
          "(cosine-weighted, fixed seed).\n";
+    o << "- **In-scene views** (issue 17): besides the camera above, a fixed, seeded set of cameras standing "
+         "inside each scene (`--views`, default 48; `--view-rays`, default 96x96 primary rays each): each stands "
+         "on a random surface point (triangles picked by area) a thousandth of the scene diagonal off the surface "
+         "along its normal, and looks in a direction uniform over the hemisphere that normal faces, 60 degree "
+         "field of view; shadow and diffuse rays from its primary hits as above. Per builder: boxes tested and "
+         "triangle tests per ray (the mean over views and the worst view), Mrays/s (all views' rays over their "
+         "time, and the slowest view), and ray cost and trace time relative to sweep SAH on the same view "
+         "(geometric mean over views, and the worst view). Rays that start inside the scene start inside "
+         "overlapping boxes, where SAH does not see the price.\n";
+    o << "- **Overlap**: for every inner node the intersection of its two children's boxes, by surface area "
+         "summed over nodes / the root's area (how many nodes a random line through the scene crosses in both "
+         "children at once), and by volume / the root's volume (how many nodes a random point of the scene lies "
+         "in both children of: an origin there ties their entry distances).\n";
     o << "- **SAH cost**: (1.2 * sum of inner-node areas + 1.0 * sum of leaf area * primitives) / root area.\n";
     o << "- **Mrays/s**: `aacbvh_bvh_intersect` (primary, diffuse) and `aacbvh_bvh_occluded` (shadow) on a "
          "1-thread context, median of the runs; for Embree, `rtcIntersect1` / `rtcOccluded1` one ray at a time.\n";
@@ -662,6 +842,29 @@ bool write_markdown(const std::string &path, const std::vector<SceneResult> &sce
             o << " | " << num(r.bytes_per_triangle, 1) << " |\n";
         }
         o << "\n";
+        if (s.views > 0) {
+            o << "In-scene views: " << s.views << " of " << s.view_width << "x" << s.view_height << " ("
+              << s.view_ray_counts[kPrimary] << " primary, " << s.view_ray_counts[kShadow] << " shadow, "
+              << s.view_ray_counts[kDiffuse] << " diffuse rays in all). Per ray: mean over views / worst view; "
+                 "relative to sweep SAH on the same view: geometric mean / worst view.\n\n";
+            o << "| builder | rays | SAH | overlap area / volume | boxes | triangles | cost rel. | Mrays/s | "
+                 "time rel. |\n|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+            for (const Row &r : s.rows) {
+                if (r.status != "ok" || std::isnan(r.views[kPrimary].steps_mean)) continue;
+                for (int k = 0; k < kRayKindCount; ++k) {
+                    const ViewFigures &v = r.views[k];
+                    o << "| " << (k ? "" : r.label) << " | " << ray_kind_name(k) << " | "
+                      << (k ? "" : num(r.sah, 1)) << " | "
+                      << (k ? "" : num(r.overlap_area, 2) + " / " + num(r.overlap_volume, 2)) << " | "
+                      << num(v.steps_mean, 1) << " / " << num(v.steps_worst, 1) << " | " << num(v.tests_mean, 1)
+                      << " / " << num(v.tests_worst, 1) << " | " << num(v.rel_cost_mean, 2) << " / "
+                      << num(v.rel_cost_worst, 2) << " | " << num(v.mrays_mean, 2) << " / "
+                      << num(v.mrays_worst, 2) << " | " << num(v.rel_time_mean, 2) << " / "
+                      << num(v.rel_time_worst, 2) << " |\n";
+                }
+            }
+            o << "\n";
+        }
     }
 
     if (info.threads.size() > 1) {
@@ -1100,6 +1303,18 @@ bool read_json(const std::string &path, std::vector<SceneResult> &scenes, RunInf
             s.height = uint32_t(image.items[1].num());
         }
         for (int k = 0; k < kRayKindCount; ++k) s.ray_counts[k] = uint64_t(js["rays"][ray_kind_name(k)].num());
+        const Json &views = js["views"];
+        // Counts out of range (a damaged or hand-edited file) become 0, never an undefined conversion.
+        auto count = [](double v, double max) { return v >= 0 && v <= max ? v : 0.0; };
+        if (views.kind == Json::kObject && count(views["count"].num(), 4294967295.0) >= 1) {
+            s.views = uint32_t(count(views["count"].num(), 4294967295.0));
+            if (views["image"].items.size() == 2) {
+                s.view_width = uint32_t(count(views["image"].items[0].num(), 4294967295.0));
+                s.view_height = uint32_t(count(views["image"].items[1].num(), 4294967295.0));
+            }
+            for (int k = 0; k < kRayKindCount; ++k)
+                s.view_ray_counts[k] = uint64_t(count(views["rays"][ray_kind_name(k)].num(), 1.8e19));
+        }
         for (const Json &jr : js["results"].items) {
             Row r;
             r.builder = jr["builder"].str();
@@ -1121,6 +1336,10 @@ bool read_json(const std::string &path, std::vector<SceneResult> &scenes, RunInf
             kinds(jr["ray_cost_relative_to_sweep_sah"], r.rel_cost);
             kinds(jr["traversal_steps"], r.steps);
             kinds(jr["mrays_per_s"], r.mrays);
+            r.overlap_area = jr["overlap"]["area"].num();
+            r.overlap_volume = jr["overlap"]["volume"].num();
+            for (int k = 0; k < kRayKindCount; ++k)
+                for (const ViewField &f : kViewFields) r.views[k].*f.member = jr["views"][ray_kind_name(k)][f.name].num();
             s.rows.push_back(r);
         }
         scenes.push_back(s);

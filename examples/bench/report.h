@@ -26,6 +26,25 @@ struct BuildTiming {
     int runs = 0;
 };
 
+/// One ray kind over the in-scene views (issue 17): each view's figure,
+/// summarised over the views. "Worst" is the worst view for that figure alone.
+struct ViewFigures {
+    double steps_mean = kNaN, steps_worst = kNaN;  ///< boxes tested per ray: mean over views, most on one view
+    double tests_mean = kNaN, tests_worst = kNaN;  ///< triangle tests per ray: mean over views, most on one view
+    double mrays_mean = kNaN, mrays_worst = kNaN;  ///< Mrays/s, 1 thread: all views' rays / all views' time, slowest view
+    /// (steps + tests) per ray / sweep SAH's on the same view: geometric mean over views, highest
+    double rel_cost_mean = kNaN, rel_cost_worst = kNaN;
+    /// trace time / sweep SAH's on the same view: geometric mean over views, highest
+    double rel_time_mean = kNaN, rel_time_worst = kNaN;
+};
+
+/// One view and ray kind as measured, before it is summarised (not written out).
+struct ViewSample {
+    double steps = kNaN, tests = kNaN;  ///< per ray
+    double seconds = kNaN;              ///< median trace time of the view's rays of this kind
+    uint64_t rays = 0;
+};
+
 /// One builder on one scene.
 struct Row {
     std::string builder;   ///< command-line id: "aac-hq", ..., "embree-low", "embree-medium", "embree-scene"
@@ -39,6 +58,10 @@ struct Row {
     double rel_cost[kRayKindCount] = {kNaN, kNaN, kNaN};  ///< cost / sweep SAH's cost
     double mrays[kRayKindCount] = {kNaN, kNaN, kNaN};     ///< million rays per second, 1 thread
     double bytes_per_triangle = kNaN;
+    /// Sibling overlap of the tree (ray_cost.h, overlap_of): by area and by volume.
+    double overlap_area = kNaN, overlap_volume = kNaN;
+    ViewFigures views[kRayKindCount];  ///< over the scene's in-scene views, when it has some
+    std::vector<ViewSample> view_samples[kRayKindCount];  ///< per view, for the summaries
 
     /// Median build time at `threads`, NaN when that count did not run.
     double build_ms(uint32_t threads) const;
@@ -53,7 +76,14 @@ struct SceneResult {
     Camera camera{};
     uint32_t width = 0, height = 0;
     uint64_t ray_counts[kRayKindCount] = {0, 0, 0};
+    uint32_t views = 0;                     ///< in-scene views (0: none measured)
+    uint32_t view_width = 0, view_height = 0;  ///< primary rays per view
+    uint64_t view_ray_counts[kRayKindCount] = {0, 0, 0};  ///< over all views
     std::vector<Row> rows;
+
+    /// Fills every row's `views` from its view_samples, the relative figures
+    /// against the sweep-sah row's samples of the same view.
+    void summarise_views();
 
     const Row *find(const std::string &builder) const;
 };

@@ -4,6 +4,7 @@
 #include "bench_test.h"
 #include "random.h"
 #include "ray_cost.h"
+#include "rays.h"
 
 #include <aacbvh/aacbvh.h>
 
@@ -185,7 +186,83 @@ void test_against_library() {
 
 }  // namespace
 
+// Overlap on hand-made trees: children [0, 1.5] and [0.5, 2] along x of a
+// 2 x 1 x 1 root share [0.5, 1.5] x [0, 1] x [0, 1], area 6 of the root's 10
+// and volume 1 of its 2; touching children share a face (area 2, no volume);
+// disjoint ones nothing; a second level adds its own share.
+void test_overlap() {
+    auto two_children = [](float l1, float r0) {
+        FlatTree t;
+        t.nodes = {make_node(0, 0, 0, 2, 1, 1, 1, 0), make_node(0, 0, 0, l1, 1, 1, 0, 1),
+                   make_node(r0, 0, 0, 2, 1, 1, 1, 1)};
+        t.prim_indices = {0, 1};
+        return t;
+    };
+    Overlap o = overlap_of(two_children(1.5f, 0.5f));
+    CHECK(std::fabs(o.area - 0.6) < 1e-12);
+    CHECK(std::fabs(o.volume - 0.5) < 1e-12);
+    o = overlap_of(two_children(1.0f, 1.0f));
+    CHECK(std::fabs(o.area - 0.2) < 1e-12);
+    CHECK(o.volume == 0.0);
+    o = overlap_of(two_children(0.75f, 1.25f));
+    CHECK(o.area == 0.0 && o.volume == 0.0);
+
+    // The left child splits again into [0, 1] and [0.5, 1.5] (share 0.5 x 1 x 1:
+    // area 2 * (0.5 + 1 + 0.5) = 4, volume 0.5): totals (6 + 4) / 10 and 1.5 / 2.
+    FlatTree t;
+    t.nodes = {make_node(0, 0, 0, 2, 1, 1, 1, 0),     make_node(0, 0, 0, 1.5f, 1, 1, 3, 0),
+               make_node(0.5f, 0, 0, 2, 1, 1, 2, 1),  make_node(0, 0, 0, 1, 1, 1, 0, 1),
+               make_node(0.5f, 0, 0, 1.5f, 1, 1, 1, 1)};
+    t.prim_indices = {0, 1, 2};
+    o = overlap_of(t);
+    CHECK(std::fabs(o.area - 1.0) < 1e-12);
+    CHECK(std::fabs(o.volume - 0.75) < 1e-12);
+
+    // A flat root has no volume to compare with.
+    FlatTree flat;
+    flat.nodes = {make_node(0, 0, 0, 2, 1, 0, 1, 0), make_node(0, 0, 0, 1.5f, 1, 0, 0, 1),
+                  make_node(0.5f, 0, 0, 2, 1, 0, 1, 1)};
+    flat.prim_indices = {0, 1};
+    o = overlap_of(flat);
+    CHECK(std::fabs(o.area - 0.5) < 1e-12);  // (2 * 1 * 1) / (2 * 2 * 1)
+    CHECK(std::isnan(o.volume));
+}
+
+// The in-scene views: as many as asked, the same for the same seed, each eye
+// just off one of the two triangles on the side its normal (+z) faces, looking
+// into that hemisphere.
+void test_views() {
+    const float light[3] = {0.5f, 0.5f, 10.0f};
+    const std::vector<Camera> a = make_views(kVertices, kIndices, 16, light, 2.0f, 7);
+    const std::vector<Camera> b = make_views(kVertices, kIndices, 16, light, 2.0f, 7);
+    const std::vector<Camera> c = make_views(kVertices, kIndices, 16, light, 2.0f, 8);
+    CHECK(a.size() == 16 && b.size() == 16 && c.size() == 16);
+    bool same = true, differs = false, below = false, above = false;
+    for (size_t i = 0; i < a.size() && i < b.size() && i < c.size(); ++i) {
+        for (int k = 0; k < 3; ++k) {
+            same = same && a[i].eye[k] == b[i].eye[k] && a[i].target[k] == b[i].target[k];
+            differs = differs || a[i].eye[k] != c[i].eye[k];
+        }
+        const float *e = a[i].eye;
+        CHECK(e[0] >= 0.0f && e[1] >= 0.0f && e[0] + e[1] <= 1.0001f);
+        const bool on0 = std::fabs(e[2] - 1.002f) < 1e-5f, on1 = std::fabs(e[2] - 2.002f) < 1e-5f;
+        CHECK(on0 || on1);
+        below = below || on0;
+        above = above || on1;
+        CHECK(a[i].target[2] - e[2] >= 0.0f);
+        CHECK(a[i].light[2] == 10.0f);
+    }
+    CHECK(same);
+    CHECK(differs);
+    CHECK(below && above);  // equal areas: 16 picks land on both
+    // No triangle of non-zero area: no view, and no endless search.
+    const std::vector<float> line = {0, 0, 0, 1, 0, 0, 2, 0, 0};
+    CHECK(make_views(line, {0, 1, 2}, 4, light, 2.0f, 7).empty());
+}
+
 int main() {
+    test_overlap();
+    test_views();
     test_hand_built_counts();
     test_sah_and_checker();
     test_against_library();

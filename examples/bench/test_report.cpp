@@ -186,8 +186,78 @@ void test_svg() {
 
 }  // namespace
 
+// The in-scene views' summaries from hand-made samples, and their way through
+// the JSON. Sweep SAH: views of cost 12 and 24, 1 s and 2 s; AAC-HQ: 24 and 12,
+// 2 s and 4 s; a third view with no rays counts for neither.
+void test_views() {
+    SceneResult s = make_scene("views", true);
+    s.views = 3;
+    s.view_width = 16;
+    s.view_height = 8;
+    s.view_ray_counts[kPrimary] = 200;
+    auto sample = [](double steps, double tests, double seconds, uint64_t rays) {
+        ViewSample v;
+        v.steps = steps;
+        v.tests = tests;
+        v.seconds = seconds;
+        v.rays = rays;
+        return v;
+    };
+    for (Row &r : s.rows) {
+        if (r.builder == "sweep-sah")
+            r.view_samples[kPrimary] = {sample(10, 2, 1.0, 100), sample(20, 4, 2.0, 100), sample(kNaN, kNaN, kNaN, 0)};
+        if (r.builder == "aac-hq")
+            r.view_samples[kPrimary] = {sample(20, 4, 2.0, 100), sample(10, 2, 4.0, 100), sample(kNaN, kNaN, kNaN, 0)};
+        r.overlap_area = 1.25;
+        r.overlap_volume = 0.5;
+    }
+    s.summarise_views();
+    const Row *hq = s.find("aac-hq"), *sweep = s.find("sweep-sah");
+    CHECK(hq && sweep);
+    if (!hq || !sweep) return;
+    const ViewFigures &v = hq->views[kPrimary];
+    CHECK(v.steps_mean == 15 && v.steps_worst == 20 && v.tests_mean == 3 && v.tests_worst == 4);
+    CHECK(same(v.mrays_mean, 200 / 6.0 * 1e-6) && same(v.mrays_worst, 25e-6));
+    CHECK(same(v.rel_cost_mean, 1.0) && same(v.rel_cost_worst, 2.0));  // views at 2x and 0.5x
+    CHECK(same(v.rel_time_mean, 2.0) && same(v.rel_time_worst, 2.0));
+    CHECK(sweep->views[kPrimary].rel_cost_mean == 1.0 && sweep->views[kPrimary].rel_time_worst == 1.0);
+    CHECK(std::isnan(hq->views[kShadow].steps_mean));  // no shadow samples: nothing to summarise
+
+    std::string err;
+    RunInfo info = make_info();
+    CHECK(write_json("test_report_views.json", {s}, info, err));
+    std::vector<SceneResult> back;
+    CHECK(read_json("test_report_views.json", back, info, err));
+    CHECK(back.size() == 1);
+    if (back.size() != 1) return;
+    CHECK(back[0].views == 3 && back[0].view_width == 16 && back[0].view_height == 8 &&
+          back[0].view_ray_counts[kPrimary] == 200);
+    const Row *bhq = back[0].find("aac-hq");
+    CHECK(bhq != nullptr);
+    if (!bhq) return;
+    CHECK(same(bhq->overlap_area, 1.25) && same(bhq->overlap_volume, 0.5));
+    const ViewFigures &b = bhq->views[kPrimary];
+    CHECK(same(b.steps_mean, v.steps_mean) && same(b.tests_worst, v.tests_worst) &&
+          same(b.mrays_worst, v.mrays_worst) && same(b.rel_cost_worst, v.rel_cost_worst) &&
+          same(b.rel_time_mean, v.rel_time_mean));
+    CHECK(std::isnan(bhq->views[kShadow].steps_mean));
+    CHECK(write_json("test_report_views_again.json", back, info, err));
+    CHECK(slurp("test_report_views.json") == slurp("test_report_views_again.json"));
+    // The Markdown report shows the views' table.
+    CHECK(write_markdown("test_report_views.md", back, info, err));
+    CHECK(slurp("test_report_views.md").find("In-scene views: 3 of 16x8") != std::string::npos);
+    CHECK(check_markdown_file("test_report_views.md", err));
+    // The plot marks the views' cost and the overlap only when there are views.
+    CHECK(write_svg("test_report_views.svg", back, info, err) && check_svg_file("test_report_views.svg", err));
+    const std::string with = slurp("test_report_views.svg");
+    CHECK(with.find("in-scene views' cost") != std::string::npos && with.find(">0.50</text>") != std::string::npos);
+    CHECK(write_svg("test_report_no_views.svg", {make_scene("plain", true)}, info, err));
+    CHECK(slurp("test_report_no_views.svg").find("in-scene views") == std::string::npos);
+}
+
 int main() {
     test_pareto_front();
+    test_views();
     test_json_round_trip();
     test_svg();
     return bench_test::finish("test_report");

@@ -158,9 +158,15 @@ AACBVH_API const char *aacbvh_last_error(void);
 
 /** Builders. Values are pinned forever. */
 typedef enum aacbvh_builder {
-    AACBVH_BUILDER_AAC_HQ = 0,          /**< default: delta 20, c = 20^0.6 / 2, alpha 0.4 */
-    AACBVH_BUILDER_AAC_FAST = 1,        /**< delta 4, c = 4^0.7 / 2, alpha 0.3 */
-    AACBVH_BUILDER_AAC = 2,             /**< AAC with the delta, c, alpha in force */
+    AACBVH_BUILDER_AAC_HQ = 0,          /**< default: delta 20, c = 20^0.6 / 2, alpha 0.4; the
+                                             clusters reaching the root split once by SAH before
+                                             the greedy merge (changed after 1.1.0) */
+    AACBVH_BUILDER_AAC_FAST = 1,        /**< delta 4, c = 4^0.7 / 2, alpha 0.3; ranges of 1,024
+                                             primitives and more hand up AAC_HQ's cluster counts,
+                                             and the root splits like AAC_HQ's (less overlap at
+                                             the top; changed after 1.1.0) */
+    AACBVH_BUILDER_AAC = 2,             /**< the paper's AAC with the delta, c, alpha in force:
+                                             f(n) = ceil(c n^alpha) at every size, greedy root */
     AACBVH_BUILDER_SWEEP_SAH = 3,       /**< top-down full-sweep SAH (MacDonald and Booth 1990) */
     AACBVH_BUILDER_BINNED_SAH = 4,      /**< top-down binned SAH, 16 bins (Wald 2007) */
     AACBVH_BUILDER_LOCALLY_ORDERED = 5, /**< exact agglomerative clustering (Walter et al. 2008) */

@@ -5,7 +5,8 @@
 //    codes differ (the middle when all are equal) until fewer than delta remain.
 // 3. Upward phase: each range greedily combines the clusters its two halves
 //    handed up (contiguous in `clusters`, as the paper's "reduce data
-//    movement" asks) down to f(n) = ceil(c n^alpha); the root down to one.
+//    movement" asks) down to f(n) = ceil(c n^alpha); the root down to one
+//    (the presets first split the root's clusters by SAH: top_split.h).
 //
 // Node ids are deterministic whatever the thread count: the range [b, e) owns
 // the inner ids n + b .. n + e - 1 and uses fewer than e - b of them; the ids a
@@ -15,6 +16,7 @@
 
 #include "build/aac/aac_builder.h"
 #include "build/aac/cluster_combine.h"
+#include "build/aac/top_split.h"
 #include "build/morton.h"
 
 namespace aacbvh {
@@ -22,7 +24,9 @@ namespace aacbvh {
 uint32_t aac_cluster_target(const AacConfig &config, uint32_t n) {
     // The presets make f(delta) an integer (delta / 2); pow() lands a hair above
     // it (10.000000000000002 for HQ), so round off that noise before the ceil.
-    const double f = std::ceil(config.c * std::pow(double(n), config.alpha) * (1.0 - 1e-12));
+    const bool top = config.top_from != 0 && n >= config.top_from;
+    const double c = top ? config.top_c : config.c, alpha = top ? config.top_alpha : config.alpha;
+    const double f = std::ceil(c * std::pow(double(n), alpha) * (1.0 - 1e-12));
     if (!(f >= 1.0)) return 1;
     return f >= double(n) ? n : uint32_t(f);
 }
@@ -74,8 +78,36 @@ private:
         // The right half's clusters and free ids move next to the left half's.
         std::copy(&clusters_[m], &clusters_[m] + right, &clusters_[b + left]);
         std::copy(&free_ids_[m], &free_ids_[m] + right, &free_ids_[b + left]);
+        if (root && config_.root_split_levels > 0) {
+            clusters_[b] = split_root(&clusters_[b], &free_ids_[b], left + right, config_.root_split_levels);
+            return 1;
+        }
         return combine_clusters(tree_, &clusters_[b], &free_ids_[b], left + right, root ? 1 : target(n), scale_, rule_,
                                 choices_, scratch_, ctx_);
+    }
+
+    SubtreeChoice choice(uint32_t id) const { return id < n_ ? rule_.leaf(tree_.boxes[id]) : choices_[id - n_]; }
+
+    /// The root range: its top `levels` levels split top-down by SAH over the
+    /// clusters' centroids (build/aac/top_split.h), each side below them merged
+    /// greedily as usual. One tree over ids[0, count) with count - 1 ids from
+    /// free[0, count); returns its root and leaves the unused free id in free[0].
+    uint32_t split_root(uint32_t *ids, uint32_t *free, uint32_t count, uint32_t levels) {
+        if (levels == 0 || count <= 2) {
+            combine_clusters(tree_, ids, free, count, 1, scale_, rule_, choices_, scratch_, ctx_);
+            return ids[0];
+        }
+        const uint32_t m = sah_partition(tree_, choices_, ids, count);
+        const uint32_t l = split_root(ids, free, m, levels - 1);
+        const uint32_t r = split_root(ids + m, free + m, count - m, levels - 1);
+        const uint32_t node = free[0];
+        free[0] = free[m];
+        Box merged = tree_.boxes[l];
+        merged.extend(tree_.boxes[r]);
+        tree_.boxes[node] = merged;
+        tree_.set_children(node, l, r);
+        choices_[node - n_] = rule_.inner(merged, choice(l), choice(r));
+        return node;
     }
 
     /// The radix-tree split: first index whose code has the highest differing bit set.

@@ -1,0 +1,107 @@
+// AAC's cluster counts f(n) (build/aac/aac_builder.h) on hand-computed values:
+// the paper's f(n) = ceil(c n^alpha) clamped to [1, n], the top stage that
+// takes other c and alpha from `top_from` primitives up, the presets
+// (AAC-Fast has HQ's counts from 1,024 up, HQ has no top stage; both split
+// the root by SAH), and the parameters: AACBVH_BUILDER_AAC, or setting delta,
+// c or alpha, always builds the paper's AAC (single f(n), greedy root).
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+// This cmocka.h has no extern "C" guard of its own.
+extern "C" {
+#include <cmocka.h>
+}
+
+#include <cmath>
+
+#include "build/aac/aac_builder.h"
+#include "builder_table.h"
+#include "params.h"
+
+namespace {
+
+using aacbvh::AacConfig;
+using aacbvh::aac_cluster_target;
+
+void test_paper_f(void **) {
+    const AacConfig sqrt_n{4, 1.0, 0.5, 0, 0.0, 0.4};
+    assert_int_equal(aac_cluster_target(sqrt_n, 100), 10);   // exactly 10: no rounding up past it
+    assert_int_equal(aac_cluster_target(sqrt_n, 101), 11);   // 10.05
+    assert_int_equal(aac_cluster_target(sqrt_n, 4096), 64);
+    assert_int_equal(aac_cluster_target(sqrt_n, 1), 1);
+    assert_int_equal(aac_cluster_target(sqrt_n, 0), 1);      // never below 1
+    const AacConfig wide{4, 10.0, 1.0, 0, 0.0, 0.4};
+    assert_int_equal(aac_cluster_target(wide, 5), 5);        // never above n
+    // The paper's presets make f(delta) = delta / 2 exactly.
+    const AacConfig hq = aacbvh::find_builder(AACBVH_BUILDER_AAC_HQ)->preset();
+    assert_int_equal(aac_cluster_target(hq, 20), 10);
+    AacConfig fast = aacbvh::find_builder(AACBVH_BUILDER_AAC_FAST)->preset();
+    assert_int_equal(aac_cluster_target(fast, 4), 2);
+}
+
+void test_top_stage(void **) {
+    const AacConfig cfg{4, 1.0, 0.5, 1024, 2.0, 0.5};
+    assert_int_equal(aac_cluster_target(cfg, 100), 10);
+    assert_int_equal(aac_cluster_target(cfg, 1023), 32);     // sqrt(1023) = 31.98: below top_from
+    assert_int_equal(aac_cluster_target(cfg, 1024), 64);     // 2 * 32
+    assert_int_equal(aac_cluster_target(cfg, 4096), 128);
+}
+
+void test_presets(void **) {
+    const AacConfig hq = aacbvh::find_builder(AACBVH_BUILDER_AAC_HQ)->preset();
+    const AacConfig fast = aacbvh::find_builder(AACBVH_BUILDER_AAC_FAST)->preset();
+    assert_int_equal(hq.top_from, 0);
+    // Both presets split the root's clusters by SAH once; the paper's AAC never.
+    assert_int_equal(hq.root_split_levels, 1);
+    assert_int_equal(fast.root_split_levels, 1);
+    assert_int_equal(AacConfig{}.root_split_levels, 0);
+    // Fast: the paper's delta, c and alpha below 1,024 primitives, HQ's above.
+    assert_int_equal(fast.delta, 4);
+    assert_true(std::fabs(fast.c - std::pow(4.0, 0.7) / 2.0) < 1e-15 && fast.alpha == 0.3);
+    assert_int_equal(fast.top_from, 1024);
+    assert_true(fast.top_c == hq.c && fast.top_alpha == hq.alpha);
+    // 1,023 primitives: ceil(1.3195 * 1023^0.3) = 11; 1,024: HQ's ceil(3.0171 * 1024^0.4) = 49.
+    assert_int_equal(aac_cluster_target(fast, 1023), 11);
+    assert_int_equal(aac_cluster_target(fast, 1024), 49);
+    assert_int_equal(aac_cluster_target(fast, 1024), aac_cluster_target(hq, 1024));
+}
+
+void test_params_drop_the_top_stage(void **) {
+    aacbvh::Params p;
+    p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_FAST);
+    assert_int_equal(p.aac.top_from, 1024);
+    p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC);     // the values in force, the paper's f(n)
+    assert_int_equal(p.aac.top_from, 0);
+    assert_int_equal(p.aac.root_split_levels, 0);
+    assert_int_equal(p.aac.delta, 4);
+    assert_true(p.aac.alpha == 0.3);
+
+    const int32_t keys[] = {AACBVH_PARAM_AAC_DELTA, AACBVH_PARAM_AAC_C, AACBVH_PARAM_AAC_ALPHA};
+    for (int32_t key : keys) {
+        p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_FAST);
+        assert_int_equal(p.aac.top_from, 1024);
+        if (key == AACBVH_PARAM_AAC_DELTA) p.set_int(key, 4);
+        else p.set_float(key, key == AACBVH_PARAM_AAC_C ? p.aac.c : 0.3);
+        assert_int_equal(p.builder, AACBVH_BUILDER_AAC);
+        assert_int_equal(p.aac.top_from, 0);
+        assert_int_equal(p.aac.root_split_levels, 0);
+    }
+    p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_HQ);
+    assert_int_equal(p.aac.top_from, 0);
+    assert_int_equal(p.aac.root_split_levels, 1);
+    p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC);
+    assert_int_equal(p.aac.root_split_levels, 0);
+}
+
+} // namespace
+
+int main() {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_paper_f),
+        cmocka_unit_test(test_top_stage),
+        cmocka_unit_test(test_presets),
+        cmocka_unit_test(test_params_drop_the_top_stage),
+    };
+    return cmocka_run_group_tests(tests, nullptr, nullptr);
+}
