@@ -156,14 +156,14 @@ void check_distance_row_argmin() {
 using aacbvh::DistanceKernel;
 
 const char *kernel_name(DistanceKernel k) {
-    return k == DistanceKernel::Scalar ? "scalar" : k == DistanceKernel::Sse ? "sse" : "avx";
+    return k == DistanceKernel::Scalar ? "scalar" : k == DistanceKernel::Sse ? "sse" : k == DistanceKernel::Avx ? "avx" : "avx2";
 }
 
 /// Runs check() once with each kernel this CPU has, then restores the default.
 template <class F> void for_each_kernel(F &&check) {
     const DistanceKernel original = aacbvh::distance_kernel();
     int ran = 0;
-    for (DistanceKernel k : {DistanceKernel::Scalar, DistanceKernel::Sse, DistanceKernel::Avx}) {
+    for (DistanceKernel k : {DistanceKernel::Scalar, DistanceKernel::Sse, DistanceKernel::Avx, DistanceKernel::Avx2}) {
         if (!aacbvh::set_distance_kernel(k)) continue;
         check();
         ++ran;
@@ -194,7 +194,7 @@ struct ColumnBoxes {
 void test_kernels_agree(void **) {
     std::mt19937 rng(31);
     std::printf("kernels on this CPU:");
-    for (DistanceKernel k : {DistanceKernel::Scalar, DistanceKernel::Sse, DistanceKernel::Avx})
+    for (DistanceKernel k : {DistanceKernel::Scalar, DistanceKernel::Sse, DistanceKernel::Avx, DistanceKernel::Avx2})
         if (aacbvh::kernel_available(k)) std::printf(" %s", kernel_name(k));
     std::printf("\n");
     const DistanceKernel original = aacbvh::distance_kernel();
@@ -221,7 +221,7 @@ void test_kernels_agree(void **) {
             uint32_t first_nearest = 0;
             float first_best = 0.0f;
             bool have_first = false;
-            for (DistanceKernel k : {DistanceKernel::Scalar, DistanceKernel::Sse, DistanceKernel::Avx}) {
+            for (DistanceKernel k : {DistanceKernel::Scalar, DistanceKernel::Sse, DistanceKernel::Avx, DistanceKernel::Avx2}) {
                 if (!aacbvh::set_distance_kernel(k)) continue;
                 std::vector<float> row(c.padded), fused(c.padded);
                 float best = 0.0f;
@@ -324,13 +324,12 @@ void test_combine_variants_agree(void **) {
     aacbvh::Scheduler scheduler(1);
     aacbvh::BuildContext ctx(scheduler, nullptr, nullptr);
     for_each_kernel([&] {
-        for (uint32_t count : {2u, 5u, 9u, 16u, 17u, 40u, 300u}) {
+        for (uint32_t count : {2u, 5u, 8u, 9u, 16u, 17u, 24u, 32u, 33u, 40u, 300u}) {
             for (uint32_t seed = 1; seed <= 6; ++seed) {
                 for (uint32_t target : {1u, 2u, count / 3 + 1}) {
                     CombineCase reference(count, seed);
                     reference.run(target, CombineVariant::Rows, ctx);
                     for (CombineVariant v : {CombineVariant::Matrix, CombineVariant::Small}) {
-                        if (v == CombineVariant::Small && count > aacbvh::kSmallCombine) continue;
                         CombineCase other(count, seed);
                         other.run(target, v, ctx);
                         if (!other.same(reference))

@@ -6,6 +6,7 @@
 #include <cfloat>
 #include <cmath>
 
+#include "build/aac/combine_small.h"
 #include "build/aac/distance_row.h"
 
 #if defined(__SSE2__)
@@ -334,12 +335,19 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
                           BuildContext &ctx, CombineVariant variant) {
     if (target < 1) target = 1;
     if (count <= target) return count;
+    // With AVX2, combines of 9 to kWideSmallCombine clusters recompute rows in
+    // registers, faster than the matrix; up to 8 the scalar loop stays faster
+    // (docs/PERFORMANCE.md, change 51).
+    const bool avx2 = distance_kernel() == DistanceKernel::Avx2;
+    const uint32_t small_limit = avx2 ? kWideSmallCombine : kSmallCombine;
     if (variant == CombineVariant::Automatic)
-        variant = count <= kSmallCombine    ? CombineVariant::Small
+        variant = count <= small_limit      ? CombineVariant::Small
                   : count <= kMatrixCombine ? CombineVariant::Matrix
                                             : CombineVariant::Rows;
-    if (variant == CombineVariant::Small && count <= kSmallCombine)
+    if (variant == CombineVariant::Small && count <= small_limit) {
+        if (avx2 && count > 8) return combine_small_avx2(tree, ids, free_ids, count, target, scale, rule, choices);
         return combine_small(tree, ids, free_ids, count, target, scale, rule, choices);
+    }
     CombineScratch &scratch = scratch_pool.local();
     const uint32_t stride = padded(count + 1);
     const MemoryMeter::Scope metered(scratch.meter); // growth counts in the build's peak

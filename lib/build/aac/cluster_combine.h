@@ -65,9 +65,10 @@ private:
 /// clusters use the calling thread's scratch from the build's `scratch_pool`.
 ///
 /// Three loops give the same merges: a register-sized one for at most
-/// kSmallCombine clusters, one over a cached distance matrix up to
+/// kSmallCombine clusters (kWideSmallCombine with the AVX2 kernel,
+/// build/aac/combine_small.h), one over a cached distance matrix up to
 /// kMatrixCombine, and one that recomputes rows beyond. `variant` picks one
-/// for tests (Small needs count <= kSmallCombine); builds pass Automatic.
+/// for tests (Small beyond its limit runs the matrix); builds pass Automatic.
 enum class CombineVariant { Automatic, Small, Matrix, Rows };
 constexpr uint32_t kSmallCombine = 16;
 constexpr uint32_t kMatrixCombine = 2048;

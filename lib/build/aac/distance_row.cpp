@@ -5,6 +5,7 @@
 #include <cfloat>
 #include <cmath>
 
+#include "build/aac/combine_small.h"
 #include "core/box.h"
 
 #if defined(__x86_64__) || defined(__i386__)
@@ -166,6 +167,7 @@ constexpr uint32_t kFloatIndexLimit = uint32_t(1) << 24;
 DistanceKernel best_kernel() {
 #ifdef AACBVH_X86
     __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx2") && combine_small_avx2_compiled()) return DistanceKernel::Avx2;
     return __builtin_cpu_supports("avx") ? DistanceKernel::Avx : DistanceKernel::Sse;
 #else
     return DistanceKernel::Scalar;
@@ -183,7 +185,8 @@ bool kernel_available(DistanceKernel kernel) {
     case DistanceKernel::Scalar: return true;
 #ifdef AACBVH_X86
     case DistanceKernel::Sse: return true;
-    case DistanceKernel::Avx: return best_kernel() == DistanceKernel::Avx;
+    case DistanceKernel::Avx: return best_kernel() >= DistanceKernel::Avx;
+    case DistanceKernel::Avx2: return best_kernel() >= DistanceKernel::Avx2;
 #endif
     default: return false;
     }
@@ -205,7 +208,7 @@ uint32_t argmin_row(const float *row, uint32_t count, float &best) {
 uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out,
                              uint32_t self, float &best) {
 #ifdef AACBVH_X86
-    if (distance_kernel() == DistanceKernel::Avx && count < kFloatIndexLimit)
+    if (distance_kernel() >= DistanceKernel::Avx && count < kFloatIndexLimit)
         return distance_row_argmin_avx(boxes, count, query, scale, out, self, best);
 #endif
     distance_row(boxes, count, query, scale, out);
@@ -216,7 +219,8 @@ uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const floa
 void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out) {
     switch (distance_kernel()) {
 #ifdef AACBVH_X86
-    case DistanceKernel::Avx: distance_row_avx(boxes, count, query, scale, out); return;
+    case DistanceKernel::Avx:
+    case DistanceKernel::Avx2: distance_row_avx(boxes, count, query, scale, out); return;
     case DistanceKernel::Sse: distance_row_sse(boxes, count, query, scale, out); return;
 #endif
     default: distance_row_scalar(boxes, count, query, scale, out); return;

@@ -33,10 +33,12 @@ uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const floa
 /// with its value in `best`; count >= 1. Reads only row[0, count).
 uint32_t argmin_row(const float *row, uint32_t count, float &best);
 
-/// The kernels: chosen once from the CPU (AVX where it has it, else SSE on
-/// x86-64, else plain C++); all give bit-identical results. Tests force each
-/// in turn (set_distance_kernel, not thread-safe: never during a build).
-enum class DistanceKernel { Scalar, Sse, Avx };
+/// The kernels: chosen once from the CPU (AVX2 where it has it, else AVX,
+/// else SSE on x86-64, else plain C++); all give bit-identical results. Tests
+/// force each in turn (set_distance_kernel, not thread-safe: never during a
+/// build). Avx2 rows are the Avx ones; it adds the small combines' AVX2 loop
+/// (build/aac/combine_small.h).
+enum class DistanceKernel { Scalar, Sse, Avx, Avx2 };
 DistanceKernel distance_kernel();
 /// Whether this build and CPU can run `kernel`.
 bool kernel_available(DistanceKernel kernel);

@@ -1,0 +1,24 @@
+// The small combine's SIMD loop (combine_small_avx2.cpp), for
+// cluster_combine.cpp: up to kWideSmallCombine clusters with rows recomputed
+// in registers instead of a cached matrix; the same merges as the scalar
+// loops.
+#pragma once
+
+#include <cstdint>
+
+#include "build/binary_tree.h"
+#include "build/flatten.h"
+
+namespace aacbvh {
+
+/// Largest combine the AVX2 loop takes.
+constexpr uint32_t kWideSmallCombine = 32;
+
+/// Whether this build of the library has the AVX2 loop (x86-64, GCC or Clang).
+bool combine_small_avx2_compiled();
+
+/// combine_clusters() for count <= kWideSmallCombine on a CPU with AVX2.
+uint32_t combine_small_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
+                            float scale, const FlattenRule &rule, SubtreeChoice *choices);
+
+} // namespace aacbvh

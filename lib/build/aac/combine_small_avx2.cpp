@@ -1,0 +1,209 @@
+// The greedy loop of a small combine (build/aac/cluster_combine.h) in AVX2:
+// the live clusters' boxes are six columns of up to kWideSmallCombine lanes,
+// and a cluster's distances to all others are one row of a few registers,
+// recomputed whenever needed instead of kept in a matrix. Same distances bit
+// for bit (the operations of scaled_union_half_area in the same order, no
+// FMA) and the same tie rules as the scalar loop, so the same merges.
+// Compiled for AVX2 only inside the target region below and called only on
+// CPUs that have it (cluster_combine.cpp).
+#include "build/aac/combine_small.h"
+
+#include <cfloat>
+#include <cmath>
+#include <utility>
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+
+// Everything defined from here to the end of the region is compiled for AVX2;
+// the headers above stay baseline code.
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#endif
+
+namespace aacbvh {
+namespace {
+
+/// Up to 8 * kVectors clusters, kVectors registers per row.
+template <int kVectors> struct SmallCombine {
+    static constexpr uint32_t kLanes = 8 * kVectors;
+    alignas(32) float col[6][kLanes]; ///< lo x, y, z, hi x, y, z of each live cluster
+    alignas(32) float nd[kLanes];     ///< distance to the nearest neighbour
+    alignas(32) int32_t nn[kLanes];   ///< the nearest neighbour's slot
+    alignas(32) float row[kLanes];    ///< the last row computed
+    Box box[kLanes];
+    __m256 scale;
+
+    void set(uint32_t i, const Box &b) {
+        box[i] = b;
+        for (int k = 0; k < 3; ++k) {
+            col[k][i] = b.lo[k];
+            col[k + 3][i] = b.hi[k];
+        }
+    }
+
+    /// d(i, j) for every lane j into `row`: +inf where j == i or j >= live.
+    /// Returns the smallest entry's slot (the lowest on ties) and its value.
+    uint32_t nearest(uint32_t i, uint32_t live, float &best) {
+        __m256 q[6];
+        for (int k = 0; k < 6; ++k) q[k] = _mm256_broadcast_ss(&col[k][i]);
+        const __m256 inf = _mm256_set1_ps(INFINITY), fmax = _mm256_set1_ps(FLT_MAX);
+        const __m256i self = _mm256_set1_epi32(int(i)), end = _mm256_set1_epi32(int(live));
+        __m256 m = inf;
+        __m256 r[kVectors];
+        for (int v = 0; v < kVectors; ++v) {
+            __m256 d[3];
+            for (int k = 0; k < 3; ++k)
+                d[k] = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_load_ps(col[k + 3] + 8 * v), q[k + 3]),
+                                                   _mm256_min_ps(_mm256_load_ps(col[k] + 8 * v), q[k])),
+                                     scale);
+            __m256 area = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[1]), _mm256_mul_ps(d[1], d[2])),
+                                        _mm256_mul_ps(d[2], d[0]));
+            area = _mm256_min_ps(area, fmax); // NaN and overflow: FLT_MAX, as the scalar clamp
+            const __m256i lane = _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
+            const __m256i off = _mm256_or_si256(_mm256_cmpeq_epi32(lane, self), _mm256_cmpgt_epi32(lane, _mm256_sub_epi32(end, _mm256_set1_epi32(1))));
+            r[v] = _mm256_blendv_ps(area, inf, _mm256_castsi256_ps(off));
+            _mm256_store_ps(row + 8 * v, r[v]);
+            m = _mm256_min_ps(m, r[v]);
+        }
+        return first_equal(r, m, best);
+    }
+
+    /// The lowest lane of r holding the minimum of the lane-wise minima m.
+    static uint32_t first_equal(const __m256 *r, __m256 m, float &best) {
+        m = _mm256_min_ps(m, _mm256_permute2f128_ps(m, m, 1));
+        m = _mm256_min_ps(m, _mm256_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
+        m = _mm256_min_ps(m, _mm256_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
+        uint64_t mask = 0;
+        for (int v = 0; v < kVectors; ++v)
+            mask |= uint64_t(unsigned(_mm256_movemask_ps(_mm256_cmp_ps(r[v], m, _CMP_EQ_OQ)))) << (8 * v);
+        best = _mm256_cvtss_f32(m);
+        return uint32_t(__builtin_ctzll(mask)); // a row always has a finite entry (live >= 2)
+    }
+
+    /// The smallest nd among the live slots (lanes past live hold +inf).
+    uint32_t closest_pair() const {
+        __m256 r[kVectors];
+        __m256 m = _mm256_set1_ps(INFINITY);
+        for (int v = 0; v < kVectors; ++v) {
+            r[v] = _mm256_load_ps(nd + 8 * v);
+            m = _mm256_min_ps(m, r[v]);
+        }
+        float ignored;
+        return first_equal(r, m, ignored);
+    }
+
+    /// After merging a and b (a < b) into slot a and moving slot `last` to b,
+    /// with `row` = d(a, .): the slots whose nearest neighbour was a or b search
+    /// again; the others follow a partner moved from last to b and take a when
+    /// it is closer (or as close with a lower slot). The scalar loop's rules.
+    void update(uint32_t a, uint32_t b, uint32_t last, uint32_t live) {
+        const __m256i va = _mm256_set1_epi32(int(a)), vb = _mm256_set1_epi32(int(b)),
+                      vlast = _mm256_set1_epi32(int(last));
+        uint64_t again_bits = 0;
+        for (int v = 0; v < kVectors; ++v) {
+            const __m256i lane = _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
+            const __m256i live_lane =
+                _mm256_andnot_si256(_mm256_cmpeq_epi32(lane, va), _mm256_cmpgt_epi32(_mm256_set1_epi32(int(live)), lane));
+            __m256i p = _mm256_load_si256(reinterpret_cast<const __m256i *>(nn + 8 * v));
+            const __m256i again =
+                _mm256_and_si256(_mm256_or_si256(_mm256_cmpeq_epi32(p, va), _mm256_cmpeq_epi32(p, vb)), live_lane);
+            p = _mm256_blendv_epi8(p, vb, _mm256_cmpeq_epi32(p, vlast));
+            const __m256 d = _mm256_load_ps(row + 8 * v), n = _mm256_load_ps(nd + 8 * v);
+            const __m256i closer = _mm256_castps_si256(
+                _mm256_or_ps(_mm256_cmp_ps(d, n, _CMP_LT_OQ),
+                             _mm256_and_ps(_mm256_cmp_ps(d, n, _CMP_EQ_OQ), _mm256_castsi256_ps(_mm256_cmpgt_epi32(p, va)))));
+            const __m256i take = _mm256_andnot_si256(again, _mm256_and_si256(closer, live_lane));
+            p = _mm256_blendv_epi8(p, va, take);
+            _mm256_store_si256(reinterpret_cast<__m256i *>(nn + 8 * v), p);
+            _mm256_store_ps(nd + 8 * v, _mm256_blendv_ps(n, d, _mm256_castsi256_ps(take)));
+            again_bits |= uint64_t(unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(again)))) << (8 * v);
+        }
+        for (; again_bits; again_bits &= again_bits - 1) {
+            const uint32_t j = uint32_t(__builtin_ctzll(again_bits));
+            nn[j] = int32_t(nearest(j, live, nd[j]));
+        }
+    }
+};
+
+template <int kVectors>
+uint32_t run(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target, float scale,
+             const FlattenRule &rule, SubtreeChoice *choices) {
+    const uint32_t n = tree.leaf_count();
+    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
+    SmallCombine<kVectors> s;
+    s.scale = _mm256_set1_ps(scale);
+    for (uint32_t i = 0; i < count; ++i) s.set(i, tree.boxes[ids[i]]);
+    for (uint32_t i = count; i < s.kLanes; ++i) {
+        s.set(i, s.box[0]); // harmless padding lanes
+        s.nd[i] = INFINITY;
+        s.nn[i] = 0;
+    }
+    for (uint32_t i = 0; i < count; ++i) s.nn[i] = int32_t(s.nearest(i, count, s.nd[i]));
+
+    uint32_t live = count, used = 0;
+    while (live > target) {
+        uint32_t a = s.closest_pair();
+        uint32_t b = uint32_t(s.nn[a]);
+        if (a > b) std::swap(a, b);
+
+        const uint32_t node = free_ids[used++];
+        const Box merged = unite(s.box[a], s.box[b]);
+        tree.boxes[node] = merged;
+        tree.set_children(node, ids[a], ids[b]);
+        choices[node - n] = rule.inner(merged, choice(ids[a]), choice(ids[b]));
+
+        const uint32_t last = live - 1;
+        if (b != last) {
+            s.set(b, s.box[last]);
+            ids[b] = ids[last];
+            s.nd[b] = s.nd[last];
+            s.nn[b] = s.nn[last];
+        }
+        s.nd[last] = INFINITY; // no longer live
+        live = last;
+        s.set(a, merged);
+        ids[a] = node;
+        float best;
+        const uint32_t nearest_a = s.nearest(a, live, best); // fills row = d(a, .)
+        s.update(a, b, last, live);
+        s.nn[a] = int32_t(nearest_a);
+        s.nd[a] = best;
+    }
+    for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
+    return live;
+}
+
+} // namespace
+
+bool combine_small_avx2_compiled() { return true; }
+
+uint32_t combine_small_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
+                            float scale, const FlattenRule &rule, SubtreeChoice *choices) {
+    if (count <= 8) return run<1>(tree, ids, free_ids, count, target, scale, rule, choices);
+    if (count <= 16) return run<2>(tree, ids, free_ids, count, target, scale, rule, choices);
+    return run<4>(tree, ids, free_ids, count, target, scale, rule, choices);
+}
+
+} // namespace aacbvh
+
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+
+#else // not x86-64 with GCC or Clang: never called (combine_small_avx2_compiled() is false)
+
+namespace aacbvh {
+bool combine_small_avx2_compiled() { return false; }
+uint32_t combine_small_avx2(BinaryTree &, uint32_t *, uint32_t *, uint32_t count, uint32_t, float,
+                            const FlattenRule &, SubtreeChoice *) {
+    return count;
+}
+} // namespace aacbvh
+
+#endif
