@@ -12,7 +12,7 @@
 namespace aacbvh {
 
 /// Largest combine the AVX2 loop takes.
-constexpr uint32_t kWideSmallCombine = 32;
+constexpr uint32_t kWideSmallCombine = 64;
 
 /// Whether this build of the library has the AVX2 loop (x86-64, GCC or Clang).
 bool combine_small_avx2_compiled();

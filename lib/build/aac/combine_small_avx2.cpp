@@ -185,7 +185,8 @@ uint32_t combine_small_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids,
                             float scale, const FlattenRule &rule, SubtreeChoice *choices) {
     if (count <= 8) return run<1>(tree, ids, free_ids, count, target, scale, rule, choices);
     if (count <= 16) return run<2>(tree, ids, free_ids, count, target, scale, rule, choices);
-    return run<4>(tree, ids, free_ids, count, target, scale, rule, choices);
+    if (count <= 32) return run<4>(tree, ids, free_ids, count, target, scale, rule, choices);
+    return run<8>(tree, ids, free_ids, count, target, scale, rule, choices);
 }
 
 } // namespace aacbvh
