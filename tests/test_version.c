@@ -37,8 +37,11 @@ static void test_version_matches_cmake(void **state) {
     assert_string_equal(AACBVH_PROJECT_VERSION, aacbvh_version_string());
     assert_int_equal(AACBVH_VERSION_MAJOR, 1);
     /* 1.1 is the first version with AACBVH_PARAM_TRIANGLE_STORAGE and
-     * AACBVH_PARAM_KEEP_BUILD_MEMORY (CHANGELOG.md). */
-    assert_true(AACBVH_VERSION_NUMBER >= 10100);
+     * AACBVH_PARAM_KEEP_BUILD_MEMORY, 1.2 the first with AACBVH_LAYOUT_WIDE8,
+     * AACBVH_PARAM_OPTIMIZE_PASSES and aacbvh_bvh_optimize (CHANGELOG.md). */
+    assert_true(AACBVH_VERSION_NUMBER >= 10200);
+    assert_int_equal(AACBVH_LAYOUT_WIDE8, 2);
+    assert_int_equal(AACBVH_PARAM_OPTIMIZE_PASSES, 12);
 }
 
 static void test_status_strings(void **state) {

@@ -37,7 +37,7 @@ import numbers
 import os
 import sys
 
-__version__ = "1.1.0"  # the library version this binding follows (aacbvh.h)
+__version__ = "1.2.0"  # the library version this binding follows (aacbvh.h)
 
 # ---- status codes, builders, parameters, layouts (values pinned by the ABI) ----
 

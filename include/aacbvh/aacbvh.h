@@ -56,7 +56,7 @@ extern "C" {
 /* ===================================================================== */
 
 #define AACBVH_VERSION_MAJOR 1
-#define AACBVH_VERSION_MINOR 1
+#define AACBVH_VERSION_MINOR 2
 #define AACBVH_VERSION_PATCH 0
 #define AACBVH_VERSION_NUMBER \
     (AACBVH_VERSION_MAJOR * 10000 + AACBVH_VERSION_MINOR * 100 + AACBVH_VERSION_PATCH)
