@@ -326,7 +326,7 @@ void test_combine_variants_agree(void **) {
     for_each_kernel([&] {
         for (uint32_t count : {2u, 5u, 8u, 9u, 16u, 17u, 24u, 32u, 33u, 40u, 300u}) {
             for (uint32_t seed = 1; seed <= 6; ++seed) {
-                for (uint32_t target : {1u, 2u, count / 3 + 1}) {
+                for (uint32_t target : {1u, 2u, count / 3 + 1, count - 1}) {
                     CombineCase reference(count, seed);
                     reference.run(target, CombineVariant::Rows, ctx);
                     for (CombineVariant v : {CombineVariant::Matrix, CombineVariant::Small}) {

@@ -230,6 +230,42 @@ inline uint32_t argmin_small(const float *row, uint32_t count, float &best) {
     return arg;
 }
 
+/// A small combine that makes one merge (count == target + 1: most of
+/// AAC-Fast's, 3 clusters to 2 above all). The greedy loop's first merge joins
+/// slot a, the lowest slot whose nearest distance is the smallest, with its
+/// nearest neighbour b, the lowest slot at that distance; b > a, since b would
+/// otherwise be a lower slot with the smallest distance. So (a, b) is the
+/// first pair in (a, b) order at the smallest distance, found here with one
+/// distance per pair and no nearest-neighbour bookkeeping; the slots then
+/// move as in the loop.
+uint32_t combine_once(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, float scale,
+                      const FlattenRule &rule, SubtreeChoice *choices) {
+    const uint32_t n = tree.leaf_count();
+    Box box[kSmallCombine];
+    for (uint32_t i = 0; i < count; ++i) box[i] = tree.boxes[ids[i]];
+    float best = INFINITY;
+    uint32_t a = 0, b = 1;
+    for (uint32_t i = 0; i + 1 < count; ++i)
+        for (uint32_t j = i + 1; j < count; ++j) {
+            const float d = scaled_union_half_area(box[i], box[j], scale);
+            const bool less = d < best;
+            best = less ? d : best;
+            a = less ? i : a;
+            b = less ? j : b;
+        }
+    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
+    const uint32_t node = free_ids[0];
+    const Box merged = unite(box[a], box[b]);
+    tree.boxes[node] = merged;
+    tree.set_children(node, ids[a], ids[b]);
+    choices[node - n] = rule.inner(merged, choice(ids[a]), choice(ids[b]));
+    const uint32_t last = count - 1;
+    if (b != last) ids[b] = ids[last];
+    ids[a] = node;
+    for (uint32_t i = 0; i < last; ++i) free_ids[i] = free_ids[i + 1];
+    return last;
+}
+
 uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
                        float scale, const FlattenRule &rule, SubtreeChoice *choices) {
     const uint32_t n = tree.leaf_count();
@@ -345,6 +381,8 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
                   : count <= kMatrixCombine ? CombineVariant::Matrix
                                             : CombineVariant::Rows;
     if (variant == CombineVariant::Small && count <= small_limit) {
+        if (count == target + 1 && count <= kSmallCombine)
+            return combine_once(tree, ids, free_ids, count, scale, rule, choices);
         if (avx2 && count > 8) return combine_small_avx2(tree, ids, free_ids, count, target, scale, rule, choices);
         return combine_small(tree, ids, free_ids, count, target, scale, rule, choices);
     }
