@@ -1,24 +1,56 @@
 #include "build/morton.h"
 
+#include <algorithm>
+
 #include "build/radix_sort.h"
 
 namespace aacbvh {
 
 void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<uint64_t> &codes,
                          Array<uint32_t> &order) {
+    // The radix sort moves the codes' high 32 bits as keys, with their low 31
+    // bits and the input index as one 64-bit value: three passes of 12 bytes
+    // per primitive instead of six. Codes that share their high half (a few,
+    // unless the scene is mostly one tiny cluster) are then ordered by that
+    // value, low bits first, then index: the order of a stable sort of the
+    // whole codes.
+    constexpr unsigned kLowBits = 31;
     const size_t n = input.size();
-    codes.resize(n);
-    order.resize(n);
+    Array<uint32_t> high(n);
+    Array<uint64_t> low_index(n);
     const MortonQuantizer quantizer(input.centroid_bounds);
     scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i) {
             const Box &box = input.boxes[i];
             const float c[3] = {box.centroid(0), box.centroid(1), box.centroid(2)};
-            codes[i] = quantizer.code(c);
-            order[i] = uint32_t(i);
+            const uint64_t code = quantizer.code(c);
+            high[i] = uint32_t(code >> kLowBits);
+            low_index[i] = (code & ((uint64_t(1) << kLowBits) - 1)) << 32 | i;
         }
     });
-    radix_sort_pairs(codes, order, 63, scheduler);
+    radix_sort_pairs(high, low_index, 63 - kLowBits, scheduler);
+    // A run of equal high halves is sorted by the chunk it starts in.
+    scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
+        size_t i = b;
+        while (i > 0 && i < e && high[i] == high[i - 1]) ++i;
+        while (i < e) {
+            size_t j = i + 1;
+            while (j < n && high[j] == high[i]) ++j;
+            if (j - i > 1) std::sort(&low_index[i], &low_index[i] + (j - i));
+            i = j;
+        }
+    });
+    // Unpacked in place: the high halves' array becomes the order, the
+    // values' array the codes.
+    scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
+        for (size_t i = b; i < e; ++i) {
+            const uint64_t v = low_index[i];
+            low_index[i] = uint64_t(high[i]) << kLowBits | v >> 32;
+            high[i] = uint32_t(v);
+        }
+    });
+    codes.swap(low_index);
+    order.swap(high);
 }
 
 } // namespace aacbvh

@@ -13,7 +13,8 @@ constexpr size_t kMinChunk = 1u << 16;
 
 } // namespace
 
-void radix_sort_pairs(Array<uint64_t> &keys, Array<uint32_t> &values, unsigned key_bits, Scheduler &scheduler) {
+template <class Key, class Value>
+void sort_pairs(Array<Key> &keys, Array<Value> &values, unsigned key_bits, Scheduler &scheduler) {
     const size_t n = keys.size();
     if (n < 2) return;
     const unsigned passes = (key_bits + kDigitBits - 1) / kDigitBits;
@@ -23,8 +24,8 @@ void radix_sort_pairs(Array<uint64_t> &keys, Array<uint32_t> &values, unsigned k
     const size_t chunks = std::max<size_t>(1, std::min<size_t>(scheduler.thread_count() * 4, n / kMinChunk));
     const size_t chunk_size = (n + chunks - 1) / chunks;
 
-    Array<uint64_t> keys_tmp(n);
-    Array<uint32_t> values_tmp(n);
+    Array<Key> keys_tmp(n);
+    Array<Value> values_tmp(n);
     std::vector<uint32_t> counts(chunks * kBuckets);
     for (unsigned p = 0; p < passes; ++p) {
         const unsigned shift = p * kDigitBits;
@@ -54,7 +55,7 @@ void radix_sort_pairs(Array<uint64_t> &keys, Array<uint32_t> &values, unsigned k
                 uint32_t *offset = &counts[c * kBuckets];
                 const size_t e = std::min(n, (c + 1) * chunk_size);
                 for (size_t i = c * chunk_size; i < e; ++i) {
-                    const uint64_t k = keys[i];
+                    const Key k = keys[i];
                     const uint32_t dst = offset[(k >> shift) & (kBuckets - 1)]++;
                     keys_tmp[dst] = k;
                     values_tmp[dst] = values[i];
@@ -64,6 +65,14 @@ void radix_sort_pairs(Array<uint64_t> &keys, Array<uint32_t> &values, unsigned k
         keys.swap(keys_tmp);
         values.swap(values_tmp);
     }
+}
+
+void radix_sort_pairs(Array<uint64_t> &keys, Array<uint32_t> &values, unsigned key_bits, Scheduler &scheduler) {
+    sort_pairs(keys, values, key_bits, scheduler);
+}
+
+void radix_sort_pairs(Array<uint32_t> &keys, Array<uint64_t> &values, unsigned key_bits, Scheduler &scheduler) {
+    sort_pairs(keys, values, key_bits, scheduler);
 }
 
 } // namespace aacbvh

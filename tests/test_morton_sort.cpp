@@ -1,0 +1,131 @@
+// sort_by_morton_code (build/morton.h) against an independent reference: the
+// codes computed one by one and std::stable_sort, on random scenes, on scenes
+// where most codes share their high half (a tiny cluster in a huge scene, so
+// the sort's second stage orders long runs), on equal codes, and at one and
+// several threads.
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+// This cmocka.h has no extern "C" guard of its own.
+extern "C" {
+#include <cmocka.h>
+}
+
+#include <algorithm>
+#include <random>
+#include <vector>
+
+#include "build/morton.h"
+
+namespace {
+
+using aacbvh::Box;
+
+aacbvh::BuildInput make_input(const std::vector<Box> &boxes) {
+    aacbvh::BuildInput in;
+    in.boxes.resize(boxes.size());
+    in.prim_ids.resize(boxes.size());
+    for (size_t i = 0; i < boxes.size(); ++i) {
+        in.boxes[i] = boxes[i];
+        in.prim_ids[i] = uint32_t(i);
+        in.bounds.extend(boxes[i]);
+        const float c[3] = {boxes[i].centroid(0), boxes[i].centroid(1), boxes[i].centroid(2)};
+        in.centroid_bounds.extend(Box{{c[0], c[1], c[2]}, {c[0], c[1], c[2]}});
+    }
+    return in;
+}
+
+/// Fails unless sort_by_morton_code gives the stable sort of the codes.
+void check_sorted(const std::vector<Box> &boxes, unsigned threads) {
+    const aacbvh::BuildInput in = make_input(boxes);
+    const aacbvh::MortonQuantizer quantizer(in.centroid_bounds);
+    std::vector<uint64_t> code(boxes.size());
+    std::vector<uint32_t> want(boxes.size());
+    for (size_t i = 0; i < boxes.size(); ++i) {
+        const float c[3] = {boxes[i].centroid(0), boxes[i].centroid(1), boxes[i].centroid(2)};
+        code[i] = quantizer.code(c);
+        want[i] = uint32_t(i);
+    }
+    std::stable_sort(want.begin(), want.end(), [&](uint32_t a, uint32_t b) { return code[a] < code[b]; });
+
+    aacbvh::Scheduler scheduler(threads);
+    aacbvh::Array<uint64_t> codes;
+    aacbvh::Array<uint32_t> order;
+    aacbvh::sort_by_morton_code(in, scheduler, codes, order);
+    assert_int_equal(codes.size(), boxes.size());
+    assert_int_equal(order.size(), boxes.size());
+    for (size_t i = 0; i < boxes.size(); ++i) {
+        if (order[i] != want[i] || codes[i] != code[want[i]])
+            fail_msg("%zu boxes, %u threads: entry %zu is %u (code %llx), expected %u (code %llx)", boxes.size(),
+                     threads, i, order[i], (unsigned long long)codes[i], want[i],
+                     (unsigned long long)code[want[i]]);
+    }
+}
+
+Box point_box(float x, float y, float z) { return Box{{x, y, z}, {x, y, z}}; }
+
+void test_random_scenes(void **) {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> u(-100.0f, 100.0f);
+    for (size_t n : {size_t(1), size_t(2), size_t(17), size_t(1000), size_t(70000)}) {
+        std::vector<Box> boxes;
+        for (size_t i = 0; i < n; ++i) {
+            const float x = u(rng), y = u(rng), z = u(rng);
+            boxes.push_back(Box{{x, y, z}, {x + 0.5f, y + 0.25f, z + 1.0f}});
+        }
+        for (unsigned threads : {1u, 3u}) check_sorted(boxes, threads);
+    }
+}
+
+/// Most centroids inside one cell of the high half's grid (2^10.3 cells per
+/// axis): a run of tens of thousands of equal high halves, ordered by the low
+/// bits; plus exact duplicates, which must keep their input order.
+void test_runs_of_equal_high_bits(void **) {
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> tiny(0.0f, 1e-4f);
+    std::vector<Box> boxes;
+    boxes.push_back(point_box(-1000.0f, -1000.0f, -1000.0f));
+    boxes.push_back(point_box(1000.0f, 1000.0f, 1000.0f));
+    for (int i = 0; i < 60000; ++i) {
+        if (i % 7 == 0)
+            boxes.push_back(point_box(0.5f, 0.5f, 0.5f)); // duplicates
+        else
+            boxes.push_back(point_box(tiny(rng), tiny(rng), tiny(rng)));
+    }
+    std::shuffle(boxes.begin() + 2, boxes.end(), rng);
+    for (unsigned threads : {1u, 2u, 5u}) check_sorted(boxes, threads);
+}
+
+/// Pairs of centroids a hair apart, shuffled: runs of two equal high halves
+/// whose low halves decide the order, in either input order.
+void test_close_pairs(void **) {
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> u(-100.0f, 100.0f);
+    std::vector<Box> boxes;
+    for (int i = 0; i < 4000; ++i) {
+        const float x = u(rng), y = u(rng), z = u(rng);
+        boxes.push_back(point_box(x, y, z));
+        boxes.push_back(point_box(x + 1e-3f, y + 1e-3f, z + 1e-3f));
+    }
+    std::shuffle(boxes.begin(), boxes.end(), rng);
+    for (unsigned threads : {1u, 2u}) check_sorted(boxes, threads);
+}
+
+/// Every code equal: the input order.
+void test_all_equal(void **) {
+    std::vector<Box> boxes(5000, point_box(3.0f, 3.0f, 3.0f));
+    for (unsigned threads : {1u, 4u}) check_sorted(boxes, threads);
+}
+
+} // namespace
+
+int main() {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_random_scenes),
+        cmocka_unit_test(test_runs_of_equal_high_bits),
+        cmocka_unit_test(test_close_pairs),
+        cmocka_unit_test(test_all_equal),
+    };
+    return cmocka_run_group_tests(tests, nullptr, nullptr);
+}
