@@ -1,7 +1,9 @@
 // Collapse and refit of the 8-wide layout (its traversal: trace/wide8_traversal.cpp).
 #include "bvh/wide8_bvh.h"
 
+#include <algorithm>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 namespace aacbvh {
@@ -61,6 +63,202 @@ void refill_packet(TrianglePacket &p, const Geometry &g) {
     }
 }
 
+/// Per binary node, from a bottom-up sweep: its subtree's slot range
+/// (count kNoRange unless its slots are one range) and, with packets,
+/// whether the subtree becomes one packet leaf. By the SAH, bottom-up: a
+/// subtree of at most kPacketLeaf primitives is one leaf when testing its
+/// packets costs less than walking its inner nodes (a binary inner node
+/// costs about a third of a wide node: a wide node replaces about three
+/// levels) and testing their leaves' packets.
+class SubtreeSweep {
+public:
+    SubtreeSweep(const Node *bnodes, size_t n, Scheduler &scheduler)
+        : bnodes_(bnodes), scheduler_(scheduler), range_count(n), range_first(n), packet_leaf(n), cost_(n) {
+        sweep(0, n, 0);
+        Array<float>().swap(cost_);
+    }
+
+    const Node *bnodes_;
+    Scheduler &scheduler_;
+    Array<uint32_t> range_count, range_first;
+    Array<uint8_t> packet_leaf;
+
+private:
+    /// Node i and its descendants, which the emitted layout (build/flatten.h)
+    /// keeps in positions [bnodes[i].first, end): its left child's after its
+    /// children pair, its right child's after them. Children sit after their
+    /// parent, so a backward loop over such a range sees them first; big
+    /// subtrees split into two tasks.
+    void sweep(uint32_t i, size_t end, unsigned depth) {
+        const Node &b = bnodes_[i];
+        if (!b.is_leaf()) {
+            const size_t first = b.first;
+            if (end - first > kSweepGrain && depth < 48) {
+                const uint32_t l = b.first, r = b.first + 1;
+                const size_t left_end = bnodes_[r].is_leaf() ? end : bnodes_[r].first;
+                scheduler_.fork_join([&] { sweep(l, left_end, depth + 1); }, [&] { sweep(r, end, depth + 1); });
+            } else {
+                for (size_t k = end; k-- > first;) visit(uint32_t(k));
+            }
+        }
+        visit(i);
+    }
+
+    void visit(uint32_t i) {
+        const Node &b = bnodes_[i];
+        const float area = b.box.half_area();
+        if (b.is_leaf()) {
+            range_first[i] = b.first;
+            range_count[i] = b.count;
+            cost_[i] = b.count <= Wide8Bvh::kPacketLeaf ? area * kPacketCost * float(packets_for(b.count)) : INFINITY;
+            packet_leaf[i] = 1;
+            return;
+        }
+        const uint32_t l = b.first, r = b.first + 1;
+        const bool joined = range_count[l] != kNoRange && range_count[r] != kNoRange &&
+                            range_first[l] + range_count[l] == range_first[r] &&
+                            uint64_t(range_count[l]) + range_count[r] < kNoRange;
+        const uint32_t count = joined ? range_count[l] + range_count[r] : kNoRange;
+        range_first[i] = range_first[l];
+        range_count[i] = count;
+        const float as_leaf = count <= Wide8Bvh::kPacketLeaf ? area * kPacketCost * float(packets_for(count)) : INFINITY;
+        const float as_tree = area * kInnerCost + cost_[l] + cost_[r];
+        packet_leaf[i] = as_leaf <= as_tree ? 1 : 0;
+        cost_[i] = packet_leaf[i] ? as_leaf : as_tree;
+    }
+
+    static constexpr size_t kSweepGrain = size_t(1) << 15;
+    Array<float> cost_;
+};
+
+/// The wide nodes below one binary node, numbered from 0 depth-first, with
+/// their packets numbered from 0 in the same order (so a leaf's packets are
+/// contiguous and near its node's other leaves).
+struct CollapsePiece {
+    Array<uint32_t> sources;      ///< 8 per wide node: the binary node behind each slot
+    Array<uint32_t> fields;       ///< 16 per wide node: child[8], count[8]
+    Array<uint32_t> packet_slots; ///< each packet's first leaf slot
+    Array<uint8_t> packet_lanes;  ///< and its lane count
+    uint32_t node_base = 0, packet_base = 0; ///< where they land in the whole tree
+    size_t node_count() const { return sources.size() / 8; }
+};
+
+/// An inner child handed to a task: its child field holds the task's index
+/// with this bit until the pieces are placed.
+constexpr uint32_t kTaskBit = 0x80000000u;
+/// Inner children with fewer primitives than this are collapsed by a task
+/// of their own; the top of the tree, above them, by the calling thread.
+constexpr uint32_t kTaskPrimitives = 1u << 12;
+
+/// Collapsing: a wide node starts as its binary node's two children and
+/// opens the child of largest area until it has eight children or only
+/// leaves (binary leaves, or packet leaves with packets).
+class Collapser {
+public:
+    Collapser(const Node *bnodes, const SubtreeSweep *sweep) : bnodes_(bnodes), sweep_(sweep) {}
+
+    /// The wide nodes from binary node `root` down into `out`; with `tasks`,
+    /// inner children of fewer than kTaskPrimitives primitives are left to
+    /// tasks (appended to it) instead.
+    void run(uint32_t root, CollapsePiece &out, std::vector<uint32_t> *tasks) const {
+        struct Work {
+            uint32_t binary;
+            uint32_t wide;
+        };
+        std::vector<Work> work{{root, 0u}};
+        uint32_t next = 1, next_packet = 0;
+        while (!work.empty()) {
+            const Work w = work.back();
+            work.pop_back();
+            uint32_t kids[8];
+            int m = 0;
+            const Node &top = bnodes_[w.binary];
+            if (top.is_leaf() || is_leaf(w.binary)) {
+                kids[m++] = w.binary; // only for a tree that is one leaf
+            } else {
+                kids[m++] = top.first;
+                kids[m++] = top.first + 1;
+                while (m < 8) {
+                    int open = -1;
+                    float open_area = -1.0f;
+                    for (int k = 0; k < m; ++k) {
+                        if (is_leaf(kids[k])) continue;
+                        const float a = bnodes_[kids[k]].box.half_area();
+                        if (a > open_area) {
+                            open = k;
+                            open_area = a;
+                        }
+                    }
+                    if (open < 0) break;
+                    const uint32_t first = bnodes_[kids[open]].first;
+                    kids[open] = first;
+                    kids[m++] = first + 1;
+                }
+            }
+            // Nodes are numbered when their parent meets them, so this one's
+            // entries may exist already.
+            if (out.sources.size() < 8 * size_t(next)) {
+                out.sources.resize(8 * size_t(next), Wide8Node::kEmptyChild);
+                out.fields.resize(16 * size_t(next), 0);
+            }
+            uint32_t *src = &out.sources[8 * size_t(w.wide)];
+            uint32_t *child = &out.fields[16 * size_t(w.wide)];
+            uint32_t *count = child + 8;
+            uint32_t wide_kid[8];
+            for (int k = 0; k < 8; ++k) {
+                wide_kid[k] = Wide8Node::kEmptyChild;
+                child[k] = Wide8Node::kEmptyChild;
+                count[k] = 0;
+                if (k >= m) continue;
+                src[k] = kids[k];
+                if (!is_leaf(kids[k])) {
+                    const uint32_t prims = sweep_ ? sweep_->range_count[kids[k]] : kNoRange;
+                    if (tasks && prims < kTaskPrimitives) {
+                        child[k] = kTaskBit | uint32_t(tasks->size());
+                        tasks->push_back(kids[k]);
+                    } else {
+                        wide_kid[k] = next++;
+                        child[k] = wide_kid[k];
+                    }
+                    continue;
+                }
+                uint32_t first, c;
+                leaf_range(kids[k], first, c);
+                if (sweep_) {
+                    child[k] = next_packet;
+                    count[k] = packets_for(c);
+                    for (uint32_t j = 0; j < count[k]; ++j) {
+                        out.packet_slots.push_back(first + 4 * j);
+                        out.packet_lanes.push_back(uint8_t(c - 4 * j < 4 ? c - 4 * j : 4));
+                    }
+                    next_packet += count[k];
+                } else {
+                    child[k] = first;
+                    count[k] = c;
+                }
+            }
+            for (int k = m; k-- > 0;)
+                if (wide_kid[k] != Wide8Node::kEmptyChild) work.push_back(Work{kids[k], wide_kid[k]});
+        }
+    }
+
+private:
+    bool is_leaf(uint32_t i) const { return bnodes_[i].is_leaf() || (sweep_ && sweep_->packet_leaf[i] != 0); }
+    /// A leaf child's slot range: the binary leaf's, or the small subtree's.
+    void leaf_range(uint32_t i, uint32_t &first, uint32_t &count) const {
+        if (bnodes_[i].is_leaf()) {
+            first = bnodes_[i].first;
+            count = bnodes_[i].count;
+        } else {
+            first = sweep_->range_first[i];
+            count = sweep_->range_count[i];
+        }
+    }
+
+    const Node *bnodes_;
+    const SubtreeSweep *sweep_; ///< with packets only
+};
+
 } // namespace
 
 void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &scheduler) {
@@ -73,140 +271,54 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     const size_t n = bvh.nodes.size();
     const bool packets = triangles != nullptr;
 
-    // One backward sweep (children follow their parent), only with packets:
-    // each binary subtree's slot range (its count is kNoRange unless its
-    // slots are one range), and which small subtrees become packet leaves.
-    // By the SAH, bottom-up: a subtree of at most kPacketLeaf primitives is
-    // one leaf when testing its packets costs less than walking its inner
-    // nodes (a binary inner node costs about a third of a wide node: a wide
-    // node replaces about three levels) and testing their leaves' packets.
-    Array<uint32_t> range_count, range_first;
-    Array<uint8_t> packet_leaf;
-    if (packets) {
-        range_count.resize(n);
-        range_first.resize(n);
-        packet_leaf.resize(n);
-        Array<float> cost(n);
-        for (size_t i = n; i-- > 0;) {
-            const Node &b = bnodes[i];
-            const float area = b.box.half_area();
-            if (b.is_leaf()) {
-                range_first[i] = b.first;
-                range_count[i] = b.count;
-                cost[i] = b.count <= kPacketLeaf ? area * kPacketCost * float(packets_for(b.count)) : INFINITY;
-                packet_leaf[i] = 1;
-                continue;
-            }
-            const uint32_t l = b.first, r = b.first + 1;
-            const bool joined = range_count[l] != kNoRange && range_count[r] != kNoRange &&
-                                range_first[l] + range_count[l] == range_first[r] &&
-                                uint64_t(range_count[l]) + range_count[r] < kNoRange;
-            const uint32_t count = joined ? range_count[l] + range_count[r] : kNoRange;
-            range_first[i] = range_first[l];
-            range_count[i] = count;
-            const float as_leaf = count <= kPacketLeaf ? area * kPacketCost * float(packets_for(count)) : INFINITY;
-            const float as_tree = area * kInnerCost + cost[l] + cost[r];
-            packet_leaf[i] = as_leaf <= as_tree ? 1 : 0;
-            cost[i] = packet_leaf[i] ? as_leaf : as_tree;
-        }
+    // Pass 1: the collapse, with packets in pieces: the top of the tree on
+    // this thread, the subtrees below it by tasks, each numbered from 0, then
+    // placed one after another (top first, tasks in the order the top met
+    // them), so the numbering is the same at any thread count.
+    std::unique_ptr<SubtreeSweep> sweep;
+    if (packets) sweep.reset(new SubtreeSweep(bnodes, n, scheduler));
+    const Collapser collapser(bnodes, sweep.get());
+    std::vector<uint32_t> tasks;
+    std::vector<CollapsePiece> pieces(1);
+    collapser.run(0, pieces[0], packets ? &tasks : nullptr);
+    pieces.resize(1 + tasks.size());
+    scheduler.parallel_for(0, tasks.size(), 1, [&](size_t b, size_t e) {
+        for (size_t t = b; t < e; ++t) collapser.run(tasks[t], pieces[1 + t], nullptr);
+    });
+    uint32_t next = 0, next_packet = 0;
+    for (CollapsePiece &piece : pieces) {
+        piece.node_base = next;
+        piece.packet_base = next_packet;
+        next += uint32_t(piece.node_count());
+        next_packet += uint32_t(piece.packet_slots.size());
     }
-    auto is_leaf = [&](uint32_t i) { return bnodes[i].is_leaf() || (packets && packet_leaf[i] != 0); };
-    // A leaf child's slot range: the binary leaf's, or the small subtree's.
-    auto leaf_range = [&](uint32_t i, uint32_t &first, uint32_t &count) {
-        if (bnodes[i].is_leaf()) {
-            first = bnodes[i].first;
-            count = bnodes[i].count;
-        } else {
-            first = range_first[i];
-            count = range_count[i];
-        }
-    };
-
-    // Pass 1, depth-first: each wide node's children (binary nodes, kept as
-    // `sources` for refit) and their child / count fields; packets are
-    // numbered in the same order, so a leaf's packets are contiguous and
-    // near its node's other leaves.
-    size_t inner = 0;
-    for (size_t i = 0; i < n; ++i) inner += bnodes[i].is_leaf() ? 0 : 1;
-    const size_t capacity = inner > 0 ? inner : 1;
-    Array<uint32_t> sources(8 * capacity);
-    Array<uint32_t> fields(16 * capacity); // child[8], count[8] per wide node
-    struct Work {
-        uint32_t binary;
-        uint32_t wide;
-    };
-    std::vector<Work> work{{0u, 0u}};
-    uint32_t next = 1;
-    uint32_t next_packet = 0;
-    // Each packet's first leaf slot and lane count, for pass 3 (at most one
-    // packet per slot).
-    Array<uint32_t> packet_slots(packets ? bvh.prim_ids.size() : 0);
-    Array<uint8_t> packet_lanes(packets ? bvh.prim_ids.size() : 0);
-    while (!work.empty()) {
-        const Work w = work.back();
-        work.pop_back();
-        uint32_t kids[8];
-        int m = 0;
-        const Node &top = bnodes[w.binary];
-        if (top.is_leaf() || is_leaf(w.binary)) {
-            kids[m++] = w.binary; // only for a tree that is one leaf
-        } else {
-            kids[m++] = top.first;
-            kids[m++] = top.first + 1;
-            while (m < 8) {
-                int open = -1;
-                float open_area = -1.0f;
-                for (int k = 0; k < m; ++k) {
-                    if (is_leaf(kids[k])) continue;
-                    const float a = bnodes[kids[k]].box.half_area();
-                    if (a > open_area) {
-                        open = k;
-                        open_area = a;
-                    }
+    Array<uint32_t> sources(8 * size_t(next));
+    Array<uint32_t> fields(16 * size_t(next)); // child[8], count[8] per wide node
+    Array<uint32_t> packet_slots(next_packet);
+    Array<uint8_t> packet_lanes(next_packet);
+    scheduler.parallel_for(0, pieces.size(), 1, [&](size_t b, size_t e) {
+        for (size_t p = b; p < e; ++p) {
+            const CollapsePiece &piece = pieces[p];
+            std::copy(piece.sources.begin(), piece.sources.end(), &sources[8 * size_t(piece.node_base)]);
+            std::copy(piece.packet_slots.begin(), piece.packet_slots.end(), &packet_slots[piece.packet_base]);
+            std::copy(piece.packet_lanes.begin(), piece.packet_lanes.end(), &packet_lanes[piece.packet_base]);
+            for (size_t w = 0; w < piece.node_count(); ++w) {
+                const uint32_t *from = &piece.fields[16 * w];
+                uint32_t *to = &fields[16 * (piece.node_base + w)];
+                for (int k = 0; k < 8; ++k) {
+                    uint32_t c = from[k];
+                    if (c != Wide8Node::kEmptyChild && from[8 + k] == 0)
+                        c = c & kTaskBit ? pieces[1 + (c & ~kTaskBit)].node_base : c + piece.node_base;
+                    else if (c != Wide8Node::kEmptyChild && packets)
+                        c += piece.packet_base;
+                    to[k] = c;
+                    to[8 + k] = from[8 + k];
                 }
-                if (open < 0) break;
-                const uint32_t first = bnodes[kids[open]].first;
-                kids[open] = first;
-                kids[m++] = first + 1;
             }
         }
-        uint32_t *src = &sources[8 * size_t(w.wide)];
-        uint32_t *child = &fields[16 * size_t(w.wide)];
-        uint32_t *count = child + 8;
-        uint32_t wide_kid[8];
-        for (int k = 0; k < 8; ++k) {
-            wide_kid[k] = Wide8Node::kEmptyChild;
-            if (k >= m) {
-                src[k] = Wide8Node::kEmptyChild;
-                child[k] = Wide8Node::kEmptyChild;
-                count[k] = 0;
-                continue;
-            }
-            src[k] = kids[k];
-            if (!is_leaf(kids[k])) {
-                wide_kid[k] = next++;
-                child[k] = wide_kid[k];
-                count[k] = 0;
-                continue;
-            }
-            uint32_t first, c;
-            leaf_range(kids[k], first, c);
-            if (packets) {
-                child[k] = next_packet;
-                count[k] = packets_for(c);
-                for (uint32_t j = 0; j < count[k]; ++j) {
-                    packet_slots[next_packet + j] = first + 4 * j;
-                    packet_lanes[next_packet + j] = uint8_t(c - 4 * j < 4 ? c - 4 * j : 4);
-                }
-                next_packet += count[k];
-            } else {
-                child[k] = first;
-                count[k] = c;
-            }
-        }
-        for (int k = m; k-- > 0;)
-            if (wide_kid[k] != Wide8Node::kEmptyChild) work.push_back(Work{kids[k], wide_kid[k]});
-    }
+    });
+    std::vector<CollapsePiece>().swap(pieces);
+    sweep.reset();
 
     // Pass 2, in parallel: nodes and packets.
     Array<Wide8Node> nodes(next);
@@ -237,17 +349,10 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
         }
     });
     Array<uint32_t>().swap(fields);
-    Array<uint32_t>().swap(range_count);
-    Array<uint32_t>().swap(range_first);
     Array<uint32_t>().swap(packet_slots);
     Array<uint8_t>().swap(packet_lanes);
-    Array<uint8_t>().swap(packet_leaf);
-    // A copy of the used part (shrink_to_fit() would swallow an allocation
-    // failure and keep the whole array).
-    Array<uint32_t> used_sources(sources.begin(), sources.begin() + 8 * ptrdiff_t(next));
-    Array<uint32_t>().swap(sources);
     nodes_ = std::move(nodes);
-    sources_ = std::move(used_sources);
+    sources_ = std::move(sources);
     packets_ = std::move(packet_array);
     node_count_ = next;
     built_ = true;
