@@ -134,13 +134,39 @@ private:
 /// The wide nodes below one binary node, numbered from 0 depth-first, with
 /// their packets numbered from 0 in the same order (so a leaf's packets are
 /// contiguous and near its node's other leaves).
+///
+/// Plain vectors: they grow as the collapse goes, and the build allocator
+/// would make each growth an allocation-failure test point (thousands per
+/// tree); PieceBytes counts them in the build's peak instead.
 struct CollapsePiece {
-    Array<uint32_t> sources;      ///< 8 per wide node: the binary node behind each slot
-    Array<uint32_t> fields;       ///< 16 per wide node: child[8], count[8]
-    Array<uint32_t> packet_slots; ///< each packet's first leaf slot
-    Array<uint8_t> packet_lanes;  ///< and its lane count
+    std::vector<uint32_t> sources;      ///< 8 per wide node: the binary node behind each slot
+    std::vector<uint32_t> fields;       ///< 16 per wide node: child[8], count[8]
+    std::vector<uint32_t> packet_slots; ///< each packet's first leaf slot
+    std::vector<uint8_t> packet_lanes;  ///< and its lane count
     uint32_t node_base = 0, packet_base = 0; ///< where they land in the whole tree
     size_t node_count() const { return sources.size() / 8; }
+    size_t held_bytes() const {
+        return 4 * (sources.capacity() + fields.capacity() + packet_slots.capacity()) + packet_lanes.capacity();
+    }
+};
+
+/// The pieces' bytes in the build's memory meter (when one is installed)
+/// while they live.
+class PieceBytes {
+public:
+    explicit PieceBytes(const std::vector<CollapsePiece> &pieces) : meter_(MemoryMeter::current()) {
+        for (const CollapsePiece &p : pieces) bytes_ += int64_t(p.held_bytes());
+        if (meter_) meter_->add(bytes_);
+    }
+    ~PieceBytes() {
+        if (meter_) meter_->add(-bytes_);
+    }
+    PieceBytes(const PieceBytes &) = delete;
+    PieceBytes &operator=(const PieceBytes &) = delete;
+
+private:
+    MemoryMeter *meter_;
+    int64_t bytes_ = 0;
 };
 
 /// An inner child handed to a task: its child field holds the task's index
@@ -292,6 +318,7 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
         next += uint32_t(piece.node_count());
         next_packet += uint32_t(piece.packet_slots.size());
     }
+    std::unique_ptr<PieceBytes> piece_bytes(new PieceBytes(pieces));
     Array<uint32_t> sources(8 * size_t(next));
     Array<uint32_t> fields(16 * size_t(next)); // child[8], count[8] per wide node
     Array<uint32_t> packet_slots(next_packet);
@@ -318,6 +345,7 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
         }
     });
     std::vector<CollapsePiece>().swap(pieces);
+    piece_bytes.reset();
     sweep.reset();
 
     // Pass 2, in parallel: nodes and packets.
