@@ -326,9 +326,11 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     scheduler.parallel_for(0, pieces.size(), 1, [&](size_t b, size_t e) {
         for (size_t p = b; p < e; ++p) {
             const CollapsePiece &piece = pieces[p];
-            std::copy(piece.sources.begin(), piece.sources.end(), &sources[8 * size_t(piece.node_base)]);
-            std::copy(piece.packet_slots.begin(), piece.packet_slots.end(), &packet_slots[piece.packet_base]);
-            std::copy(piece.packet_lanes.begin(), piece.packet_lanes.end(), &packet_lanes[piece.packet_base]);
+            // data() + offset, not &array[offset]: the packet arrays are
+            // empty without packets.
+            std::copy(piece.sources.begin(), piece.sources.end(), sources.data() + 8 * size_t(piece.node_base));
+            std::copy(piece.packet_slots.begin(), piece.packet_slots.end(), packet_slots.data() + piece.packet_base);
+            std::copy(piece.packet_lanes.begin(), piece.packet_lanes.end(), packet_lanes.data() + piece.packet_base);
             for (size_t w = 0; w < piece.node_count(); ++w) {
                 const uint32_t *from = &piece.fields[16 * w];
                 uint32_t *to = &fields[16 * (piece.node_base + w)];
