@@ -1,6 +1,9 @@
 // Collapse and refit of the 8-wide layout (its traversal: trace/wide8_traversal.cpp).
 #include "bvh/wide8_bvh.h"
 
+#include "bvh/packet_leaf_sweep.h"
+#include "bvh/wide_collapse.h"
+
 #include <algorithm>
 #include <cmath>
 #include <memory>
@@ -18,8 +21,6 @@ void Wide8Bvh::clear() {
 
 namespace {
 
-constexpr uint32_t kNoRange = 0xFFFFFFFFu;
-
 void set_empty_slot(Wide8Node &node, int k) {
     node.box[0][k] = node.box[2][k] = node.box[4][k] = INFINITY;
     node.box[1][k] = node.box[3][k] = node.box[5][k] = -INFINITY;
@@ -33,12 +34,6 @@ void set_slot_box(Wide8Node &node, int k, const Box &b) {
         node.box[2 * a + 1][k] = b.hi[a];
     }
 }
-
-uint32_t packets_for(uint32_t primitives) { return (primitives + 3) / 4; }
-
-/// SAH costs of the packet-leaf choice, relative to a wide node's test.
-constexpr float kPacketCost = 0.25f;
-constexpr float kInnerCost = 0.35f;
 
 /// Fills packet `p` from leaf slots [first, first + count), at most four of
 /// them, the last repeated in spare lanes.
@@ -62,74 +57,6 @@ void refill_packet(TrianglePacket &p, const Geometry &g) {
             for (int a = 0; a < 3; ++a) p.v[i][a][lane] = v[i][a];
     }
 }
-
-/// Per binary node, from a bottom-up sweep: its subtree's slot range
-/// (count kNoRange unless its slots are one range) and, with packets,
-/// whether the subtree becomes one packet leaf. By the SAH, bottom-up: a
-/// subtree of at most kPacketLeaf primitives is one leaf when testing its
-/// packets costs less than walking its inner nodes (a binary inner node
-/// costs about a third of a wide node: a wide node replaces about three
-/// levels) and testing their leaves' packets.
-class SubtreeSweep {
-public:
-    SubtreeSweep(const Node *bnodes, size_t n, Scheduler &scheduler)
-        : bnodes_(bnodes), scheduler_(scheduler), range_count(n), range_first(n), packet_leaf(n), cost_(n) {
-        sweep(0, n, 0);
-        Array<float>().swap(cost_);
-    }
-
-    const Node *bnodes_;
-    Scheduler &scheduler_;
-    Array<uint32_t> range_count, range_first;
-    Array<uint8_t> packet_leaf;
-
-private:
-    /// Node i and its descendants, which the emitted layout (build/flatten.h)
-    /// keeps in positions [bnodes[i].first, end): its left child's after its
-    /// children pair, its right child's after them. Children sit after their
-    /// parent, so a backward loop over such a range sees them first; big
-    /// subtrees split into two tasks.
-    void sweep(uint32_t i, size_t end, unsigned depth) {
-        const Node &b = bnodes_[i];
-        if (!b.is_leaf()) {
-            const size_t first = b.first;
-            if (end - first > kSweepGrain && depth < 48) {
-                const uint32_t l = b.first, r = b.first + 1;
-                const size_t left_end = bnodes_[r].is_leaf() ? end : bnodes_[r].first;
-                scheduler_.fork_join([&] { sweep(l, left_end, depth + 1); }, [&] { sweep(r, end, depth + 1); });
-            } else {
-                for (size_t k = end; k-- > first;) visit(uint32_t(k));
-            }
-        }
-        visit(i);
-    }
-
-    void visit(uint32_t i) {
-        const Node &b = bnodes_[i];
-        const float area = b.box.half_area();
-        if (b.is_leaf()) {
-            range_first[i] = b.first;
-            range_count[i] = b.count;
-            cost_[i] = b.count <= Wide8Bvh::kPacketLeaf ? area * kPacketCost * float(packets_for(b.count)) : INFINITY;
-            packet_leaf[i] = 1;
-            return;
-        }
-        const uint32_t l = b.first, r = b.first + 1;
-        const bool joined = range_count[l] != kNoRange && range_count[r] != kNoRange &&
-                            range_first[l] + range_count[l] == range_first[r] &&
-                            uint64_t(range_count[l]) + range_count[r] < kNoRange;
-        const uint32_t count = joined ? range_count[l] + range_count[r] : kNoRange;
-        range_first[i] = range_first[l];
-        range_count[i] = count;
-        const float as_leaf = count <= Wide8Bvh::kPacketLeaf ? area * kPacketCost * float(packets_for(count)) : INFINITY;
-        const float as_tree = area * kInnerCost + cost_[l] + cost_[r];
-        packet_leaf[i] = as_leaf <= as_tree ? 1 : 0;
-        cost_[i] = packet_leaf[i] ? as_leaf : as_tree;
-    }
-
-    static constexpr size_t kSweepGrain = size_t(1) << 15;
-    Array<float> cost_;
-};
 
 /// The wide nodes below one binary node, numbered from 0 depth-first, with
 /// their packets numbered from 0 in the same order (so a leaf's packets are
@@ -181,7 +108,7 @@ constexpr uint32_t kTaskPrimitives = 1u << 12;
 /// leaves (binary leaves, or packet leaves with packets).
 class Collapser {
 public:
-    Collapser(const Node *bnodes, const SubtreeSweep *sweep) : bnodes_(bnodes), sweep_(sweep) {}
+    Collapser(const Node *bnodes, const PacketLeafSweep *sweep) : bnodes_(bnodes), sweep_(sweep) {}
 
     /// The wide nodes from binary node `root` down into `out`; with `tasks`,
     /// inner children of fewer than kTaskPrimitives primitives are left to
@@ -197,30 +124,7 @@ public:
             const Work w = work.back();
             work.pop_back();
             uint32_t kids[8];
-            int m = 0;
-            const Node &top = bnodes_[w.binary];
-            if (top.is_leaf() || is_leaf(w.binary)) {
-                kids[m++] = w.binary; // only for a tree that is one leaf
-            } else {
-                kids[m++] = top.first;
-                kids[m++] = top.first + 1;
-                while (m < 8) {
-                    int open = -1;
-                    float open_area = -1.0f;
-                    for (int k = 0; k < m; ++k) {
-                        if (is_leaf(kids[k])) continue;
-                        const float a = bnodes_[kids[k]].box.half_area();
-                        if (a > open_area) {
-                            open = k;
-                            open_area = a;
-                        }
-                    }
-                    if (open < 0) break;
-                    const uint32_t first = bnodes_[kids[open]].first;
-                    kids[open] = first;
-                    kids[m++] = first + 1;
-                }
-            }
+            const int m = open_largest_children(bnodes_, w.binary, [this](uint32_t i) { return is_leaf(i); }, kids);
             // Nodes are numbered when their parent meets them, so this one's
             // entries may exist already.
             if (out.sources.size() < 8 * size_t(next)) {
@@ -282,7 +186,7 @@ private:
     }
 
     const Node *bnodes_;
-    const SubtreeSweep *sweep_; ///< with packets only
+    const PacketLeafSweep *sweep_; ///< with packets only
 };
 
 } // namespace
@@ -294,15 +198,14 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
         return;
     }
     const Node *bnodes = bvh.nodes.data();
-    const size_t n = bvh.nodes.size();
     const bool packets = triangles != nullptr;
 
     // Pass 1: the collapse, with packets in pieces: the top of the tree on
     // this thread, the subtrees below it by tasks, each numbered from 0, then
     // placed one after another (top first, tasks in the order the top met
     // them), so the numbering is the same at any thread count.
-    std::unique_ptr<SubtreeSweep> sweep;
-    if (packets) sweep.reset(new SubtreeSweep(bnodes, n, scheduler));
+    std::unique_ptr<PacketLeafSweep> sweep;
+    if (packets) sweep.reset(new PacketLeafSweep(bvh, scheduler));
     const Collapser collapser(bnodes, sweep.get());
     std::vector<uint32_t> tasks;
     std::vector<CollapsePiece> pieces(1);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "bvh/wide_collapse.h"
 #include "core/memory.h"
 
 namespace aacbvh {
@@ -61,28 +62,7 @@ void WideBvh::build(const Bvh &bvh, Scheduler &scheduler) {
         const Work w = work.back();
         work.pop_back();
         uint32_t kids[4];
-        int n = 0;
-        const Node &top = bnodes[w.binary];
-        if (top.is_leaf()) {
-            kids[n++] = w.binary; // only for a tree that is one leaf
-        } else {
-            kids[n++] = top.first;
-            kids[n++] = top.first + 1;
-            while (n < 4) {
-                int open = -1;
-                float open_area = -1.0f;
-                for (int k = 0; k < n; ++k) {
-                    const Node &c = bnodes[kids[k]];
-                    if (c.is_leaf()) continue;
-                    const float a = c.box.half_area();
-                    if (a > open_area) { open = k; open_area = a; }
-                }
-                if (open < 0) break;
-                const uint32_t first = bnodes[kids[open]].first;
-                kids[open] = first;
-                kids[n++] = first + 1;
-            }
-        }
+        const int n = open_largest_children(bnodes, w.binary, [bnodes](uint32_t i) { return bnodes[i].is_leaf(); }, kids);
         uint32_t *src = &sources[4 * size_t(w.wide)];
         uint32_t wide_kid[4];
         first_child[w.wide] = next;

@@ -1,0 +1,67 @@
+// The packet-leaf choice of the 8-wide layout (see packet_leaf_sweep.h).
+#include "bvh/packet_leaf_sweep.h"
+
+#include <cmath>
+
+#include "bvh/wide8_bvh.h"
+
+namespace aacbvh {
+
+namespace {
+
+/// SAH costs of the packet-leaf choice, relative to a wide node's test.
+constexpr float kPacketCost = 0.25f;
+constexpr float kInnerCost = 0.35f;
+
+} // namespace
+
+PacketLeafSweep::PacketLeafSweep(const Bvh &bvh, Scheduler &scheduler, size_t grain)
+    : range_count(bvh.nodes.size()), range_first(bvh.nodes.size()), packet_leaf(bvh.nodes.size()),
+      nodes_(bvh.nodes.data()), scheduler_(scheduler), grain_(grain), cost_(bvh.nodes.size()) {
+    if (!bvh.nodes.empty()) sweep(0, bvh.nodes.size(), 0);
+    Array<float>().swap(cost_);
+}
+
+/// Node i and its descendants, which the emitted layout keeps in positions
+/// [nodes_[i].first, end): its left child's after its children pair, its
+/// right child's after them. Children sit after their parent, so a backward
+/// loop over such a range sees them first; big subtrees split into two tasks.
+void PacketLeafSweep::sweep(uint32_t i, size_t end, unsigned depth) {
+    const Node &b = nodes_[i];
+    if (!b.is_leaf()) {
+        const size_t first = b.first;
+        if (end - first > grain_ && depth < 48) {
+            const uint32_t l = b.first, r = b.first + 1;
+            const size_t left_end = nodes_[r].is_leaf() ? end : nodes_[r].first;
+            scheduler_.fork_join([&] { sweep(l, left_end, depth + 1); }, [&] { sweep(r, end, depth + 1); });
+        } else {
+            for (size_t k = end; k-- > first;) visit(uint32_t(k));
+        }
+    }
+    visit(i);
+}
+
+void PacketLeafSweep::visit(uint32_t i) {
+    const Node &b = nodes_[i];
+    const float area = b.box.half_area();
+    if (b.is_leaf()) {
+        range_first[i] = b.first;
+        range_count[i] = b.count;
+        cost_[i] = b.count <= Wide8Bvh::kPacketLeaf ? area * kPacketCost * float(packets_for(b.count)) : INFINITY;
+        packet_leaf[i] = 1;
+        return;
+    }
+    const uint32_t l = b.first, r = b.first + 1;
+    const bool joined = range_count[l] != kNoRange && range_count[r] != kNoRange &&
+                        range_first[l] + range_count[l] == range_first[r] &&
+                        uint64_t(range_count[l]) + range_count[r] < kNoRange;
+    const uint32_t count = joined ? range_count[l] + range_count[r] : kNoRange;
+    range_first[i] = range_first[l];
+    range_count[i] = count;
+    const float as_leaf = count <= Wide8Bvh::kPacketLeaf ? area * kPacketCost * float(packets_for(count)) : INFINITY;
+    const float as_tree = area * kInnerCost + cost_[l] + cost_[r];
+    packet_leaf[i] = as_leaf <= as_tree ? 1 : 0;
+    cost_[i] = packet_leaf[i] ? as_leaf : as_tree;
+}
+
+} // namespace aacbvh

@@ -1,0 +1,48 @@
+// Which binary subtrees the 8-wide layout keeps whole as one packet leaf
+// (bvh/wide8_bvh.cpp), decided by one bottom-up sweep over the binary tree.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "bvh/bvh.h"
+#include "core/memory.h"
+#include "core/scheduler.h"
+
+namespace aacbvh {
+
+/// The range count of a subtree whose slots are not one range.
+constexpr uint32_t kNoRange = 0xFFFFFFFFu;
+
+/// Packets of four triangles that hold `primitives` leaf slots.
+inline uint32_t packets_for(uint32_t primitives) { return (primitives + 3) / 4; }
+
+/// Per binary node: its subtree's slot range (count kNoRange unless its
+/// slots are one range) and whether the subtree becomes one packet leaf. By
+/// the SAH, bottom-up: a subtree of at most Wide8Bvh::kPacketLeaf primitives
+/// is one leaf when testing its packets costs less than walking its inner
+/// nodes (a binary inner node costs about a third of a wide node: a wide
+/// node replaces about three levels) and testing their leaves' packets.
+class PacketLeafSweep {
+public:
+    /// Subtrees of more nodes than this are swept by two tasks.
+    static constexpr size_t kDefaultGrain = size_t(1) << 15;
+
+    /// `bvh` in the emitted layout (build/flatten.h). `grain` is for tests:
+    /// the answer is the same for any.
+    PacketLeafSweep(const Bvh &bvh, Scheduler &scheduler, size_t grain = kDefaultGrain);
+
+    Array<uint32_t> range_count, range_first;
+    Array<uint8_t> packet_leaf;
+
+private:
+    void sweep(uint32_t i, size_t end, unsigned depth);
+    void visit(uint32_t i);
+
+    const Node *nodes_;
+    Scheduler &scheduler_;
+    size_t grain_;
+    Array<float> cost_; ///< during the sweep only
+};
+
+} // namespace aacbvh
