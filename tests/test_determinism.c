@@ -29,7 +29,7 @@
 #include "test_support.h"
 
 static const uint32_t kThreadCounts[] = {1, 2, 3, 8};
-enum { kRayCount = 4096 };
+enum { kRayCount = TS_RAYS(4096) };
 
 /* One way to build: a builder and the parameters that change what is made. */
 typedef struct build_config {

@@ -148,6 +148,23 @@ int ts_tree_diff(const ts_tree *a, const ts_tree *b, char *msg, size_t msg_size)
  */
 aacbvh_ray *ts_make_rays(const float *coords, size_t coord_count, size_t count, uint64_t seed);
 
+/* ThreadSanitizer checks every memory access (tests run 10-15 times slower
+ * under it). Tests that repeat the same checks over thousands of rays use
+ * TS_RAYS(n) rays: n, or under ThreadSanitizer at most 1100, which still
+ * splits every batch into tasks (grains of 256 and 1024 rays). The checks are
+ * the same; the Release and AddressSanitizer runs trace all n. */
+#if defined(__SANITIZE_THREAD__)
+#define TS_UNDER_TSAN 1
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define TS_UNDER_TSAN 1
+#endif
+#endif
+#ifndef TS_UNDER_TSAN
+#define TS_UNDER_TSAN 0
+#endif
+#define TS_RAYS(n) (TS_UNDER_TSAN && (n) > 1100 ? 1100 : (n))
+
 /** The answers of one BVH to a batch of rays. */
 typedef struct ts_answers {
     aacbvh_hit *hits;

@@ -25,7 +25,7 @@ extern "C" {
 
 namespace {
 
-constexpr size_t kRays = 3000;
+constexpr size_t kRays = TS_RAYS(3000);
 const aacbvh::TraceKernel kKernels[] = {aacbvh::TraceKernel::Scalar, aacbvh::TraceKernel::Sse2,
                                         aacbvh::TraceKernel::Avx2};
 

@@ -45,7 +45,7 @@ static int teardown_group(void **state) {
 
 static const aacbvh_builder kBuilders[] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_BINNED_SAH};
 static const aacbvh_layout kLayouts[] = {AACBVH_LAYOUT_BINARY, AACBVH_LAYOUT_WIDE4, AACBVH_LAYOUT_WIDE8};
-enum { kRays = 4000 };
+enum { kRays = TS_RAYS(4000) };
 
 static aacbvh_bvh *make_bvh(aacbvh_builder builder, aacbvh_layout layout, aacbvh_triangle_storage storage) {
     aacbvh_bvh *bvh;
