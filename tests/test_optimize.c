@@ -341,6 +341,14 @@ static bool cancel_cb(void *user, double fraction) {
     return s->calls++ != s->cancel_at;
 }
 
+/* The cancel test's handle and its twin: copied triangles, the 4-wide layout. */
+static void build_for_cancel(aacbvh_bvh *bvh, const ts_mesh *m) {
+    ts_set_mesh(bvh, m);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRIANGLE_STORAGE, AACBVH_TRIANGLES_COPIED), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, AACBVH_LAYOUT_WIDE4), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+}
+
 static void test_cancel_keeps_tree(void **state) {
     (void)state;
     ts_mesh m;
@@ -349,11 +357,7 @@ static void test_cancel_keeps_tree(void **state) {
         aacbvh_context *ctx;
         aacbvh_bvh *bvh;
         ts_create(threads, &ctx, &bvh);
-        ts_set_mesh(bvh, &m);
-        TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRIANGLE_STORAGE, AACBVH_TRIANGLES_COPIED),
-                         AACBVH_OK);
-        TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_TRAVERSAL_LAYOUT, AACBVH_LAYOUT_WIDE4), AACBVH_OK);
-        TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+        build_for_cancel(bvh, &m);
         ts_tree before;
         TS_EXPECT_STATUS(ts_tree_fetch(bvh, &before), AACBVH_OK);
         aacbvh_ray *rays = ts_make_rays(m.vertices, 3 * m.vertex_count, 500, 52);
@@ -364,12 +368,7 @@ static void test_cancel_keeps_tree(void **state) {
         {
             aacbvh_bvh *twin;
             TS_EXPECT_STATUS(aacbvh_bvh_create(ctx, &twin), AACBVH_OK);
-            ts_set_mesh(twin, &m);
-            TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(twin, AACBVH_PARAM_TRIANGLE_STORAGE, AACBVH_TRIANGLES_COPIED),
-                             AACBVH_OK);
-            TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(twin, AACBVH_PARAM_TRAVERSAL_LAYOUT, AACBVH_LAYOUT_WIDE4),
-                             AACBVH_OK);
-            TS_EXPECT_STATUS(aacbvh_bvh_build(twin), AACBVH_OK);
+            build_for_cancel(twin, &m);
             cancel_state s = {twin, 0, -1, AACBVH_OK, -1.0, 0};
             TS_EXPECT_STATUS(aacbvh_bvh_set_progress_callback(twin, cancel_cb, &s), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_optimize(twin, 3), AACBVH_OK);
