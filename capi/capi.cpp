@@ -281,7 +281,8 @@ aacbvh_status aacbvh_bvh_get_nodes(const aacbvh_bvh *bvh, size_t first, size_t c
     AACBVH_REQUIRE_HANDLE(bvh);
     return guarded(bvh, [&] {
         bvh->object.require_tree();
-        copy_range(bvh->object.tree().nodes, first, count, out, "node range", "node count");
+        bvh->object.with_tree(
+            [&](const aacbvh::Bvh &tree) { copy_range(tree.nodes, first, count, out, "node range", "node count"); });
     });
 }
 
@@ -289,7 +290,7 @@ aacbvh_status aacbvh_bvh_get_primitive_indices(const aacbvh_bvh *bvh, size_t fir
     AACBVH_REQUIRE_HANDLE(bvh);
     return guarded(bvh, [&] {
         bvh->object.require_tree();
-        copy_range(bvh->object.tree().prim_ids, first, count, out, "index range", "primitive count");
+        copy_range(bvh->object.primitive_indices(), first, count, out, "index range", "primitive count");
     });
 }
 

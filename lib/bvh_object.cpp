@@ -197,7 +197,13 @@ void BvhObject::build() {
 
 void BvhObject::make_layouts(const Bvh &tree, Layouts &out) const {
     if (params.layout == AACBVH_LAYOUT_WIDE4) out.wide.build(tree, scheduler_);
-    if (params.layout == AACBVH_LAYOUT_WIDE8) out.wide8.build(tree, packets_wanted() ? &geometry_ : nullptr, scheduler_);
+    if (params.layout == AACBVH_LAYOUT_WIDE8) {
+        out.wide8.build(tree, packets_wanted() ? &geometry_ : nullptr, scheduler_);
+        // The packets hold the vertices, so the binary boxes can be made
+        // again from them: keep the shape only (its refit needs no sources).
+        if (out.wide8.has_packets() && out.topology.encode(tree, out.wide8.sources().data(), out.wide8.sources().size()))
+            out.wide8.release_sources();
+    }
     if (flat_copy_wanted()) {
         out.triangles.resize(9 * tree.prim_ids.size());
         copy_triangles(tree, out.triangles.data());
@@ -208,6 +214,51 @@ void BvhObject::install(Layouts &layouts) noexcept {
     wide_ = std::move(layouts.wide);
     wide8_ = std::move(layouts.wide8);
     triangles_.swap(layouts.triangles);
+    topology_ = std::move(layouts.topology);
+    if (compact()) Array<Node>().swap(bvh_.nodes);
+}
+
+void BvhObject::remake_tree(Bvh &out) const {
+    Array<uint32_t> where;
+    wide8_.index_packets(geometry_.primitive_count, where, scheduler_);
+    out.prim_ids = bvh_.prim_ids;
+    topology_.decode(out.nodes);
+    Node *nodes = out.nodes.data();
+    const uint32_t *ids = out.prim_ids.data();
+    scheduler_.parallel_for(0, out.nodes.size(), 1u << 13, [&](size_t b, size_t e) {
+        for (size_t i = b; i < e; ++i) {
+            Node &node = nodes[i];
+            if (!node.is_leaf()) continue;
+            Box box = Box::empty();
+            for (uint32_t k = 0; k < node.count; ++k) box.extend(wide8_.packet_triangle_box(where[ids[node.first + k]]));
+            node.box = box;
+        }
+    });
+    for (size_t i = out.nodes.size(); i-- > 0;) {
+        Node &node = nodes[i];
+        if (!node.is_leaf()) node.box = unite(nodes[node.first].box, nodes[node.first + 1].box);
+    }
+}
+
+TreeFigures BvhObject::compact_figures() const {
+    Array<uint32_t> where;
+    wide8_.index_packets(geometry_.primitive_count, where, scheduler_);
+    const uint32_t *ids = bvh_.prim_ids.data();
+    return topology_.walk(
+        [&](uint32_t first, uint32_t count) {
+            Box box = Box::empty();
+            for (uint32_t k = 0; k < count; ++k) box.extend(wide8_.packet_triangle_box(where[ids[first + k]]));
+            return box;
+        },
+        [](uint32_t, const Box &) {}, scheduler_);
+}
+
+void BvhObject::expand() {
+    Bvh full;
+    remake_tree(full);
+    bvh_.nodes.swap(full.nodes);
+    topology_.clear();
+    wide8_.clear();
 }
 
 bool BvhObject::packets_wanted() const {
@@ -240,6 +291,13 @@ void BvhObject::refit() {
     if (bad != SIZE_MAX)
         throw Error(AACBVH_ERROR_INVALID_GEOMETRY, std::string(geometry_.kind == GeometryKind::Boxes ? "box " : "triangle ") +
                                                        std::to_string(bad) + " " + primitive_problem(geometry_, bad));
+    // Only the binary tree's shape is kept: the walk over it gives the wide
+    // nodes their boxes and the statistics their areas.
+    if (compact() && params.layout == AACBVH_LAYOUT_WIDE8 && packets_wanted()) {
+        refit_compact();
+        return;
+    }
+    if (compact()) expand(); // another layout: it is made from the binary nodes
     // The wide tree is made before the refit can change anything (the
     // topology is the same), then takes the refitted boxes.
     if (params.layout != AACBVH_LAYOUT_WIDE4)
@@ -283,6 +341,32 @@ void BvhObject::refit() {
     valid_ = true;
 }
 
+void BvhObject::refit_compact() {
+    {
+        std::lock_guard<std::mutex> lock(figures_mutex_);
+        if (!built_areas_known_) {
+            built_areas_ = figures_known_ ? figures_.areas : compact_figures().areas;
+            built_areas_known_ = true;
+        }
+    }
+    // From here nothing allocates: the packets, then the walk.
+    wide8_.refill_packets(geometry_, scheduler_);
+    const uint32_t *ids = bvh_.prim_ids.data();
+    const TreeFigures f = topology_.walk(
+        [&](uint32_t first, uint32_t count) {
+            Box box = Box::empty();
+            for (uint32_t k = 0; k < count; ++k) box.extend(geometry_.primitive_box(ids[first + k]));
+            return box;
+        },
+        [&](uint32_t slot, const Box &box) { wide8_.set_slot_box(slot, box); }, scheduler_);
+    {
+        std::lock_guard<std::mutex> lock(figures_mutex_);
+        figures_ = f;
+        figures_known_ = true;
+    }
+    valid_ = true;
+}
+
 void BvhObject::optimize(uint32_t passes) {
     require_idle();
     require_tree();
@@ -305,7 +389,7 @@ void BvhObject::optimize(uint32_t passes) {
     Bvh result;
     {
         BinaryTree tree;
-        unflatten(bvh_, geometry_, ctx, tree);
+        with_tree([&](const Bvh &current) { unflatten(current, geometry_, ctx, tree); });
         ctx.report(0.05);
         SubtreeChoices choices;
         choose_subtrees(tree, rule, ctx, choices);
@@ -315,7 +399,10 @@ void BvhObject::optimize(uint32_t passes) {
     // The SAH as stats report it never rises: a tree that would cost more
     // (rounding, or leaves over a max_leaf_size lowered since the build) is
     // not taken.
-    const double before = sum_areas(bvh_, scheduler_).sah_cost(params.traversal_cost, params.intersection_cost);
+    double before = 0.0;
+    with_tree([&](const Bvh &current) {
+        before = sum_areas(current, scheduler_).sah_cost(params.traversal_cost, params.intersection_cost);
+    });
     const double after = sum_areas(result, scheduler_).sah_cost(params.traversal_cost, params.intersection_cost);
     if (!(after < before)) {
         ctx.report(1.0);
@@ -341,7 +428,7 @@ void BvhObject::require_tree() const {
 TreeFigures BvhObject::figures() const {
     std::lock_guard<std::mutex> lock(figures_mutex_);
     if (!figures_known_) {
-        figures_ = measure_tree(bvh_, scheduler_);
+        figures_ = compact() ? compact_figures() : measure_tree(bvh_, scheduler_);
         figures_known_ = true;
     }
     return figures_;
@@ -351,12 +438,12 @@ void BvhObject::stats(aacbvh_stats &out) const {
     require_tree();
     const TreeFigures f = figures();
     out.max_depth = f.max_depth;
-    out.node_count = bvh_.nodes.size();
+    out.node_count = compact() ? topology_.node_count() : bvh_.nodes.size();
     out.leaf_count = f.leaf_count;
     out.primitive_count = bvh_.prim_ids.size();
     out.sah_cost = f.areas.sah_cost(params.traversal_cost, params.intersection_cost);
     out.kept_build_bytes = kept_build_bytes();
-    out.memory_bytes = sizeof(*this) + bvh_.memory_bytes() + wide_.memory_bytes() + wide8_.memory_bytes() +
+    out.memory_bytes = sizeof(*this) + bvh_.memory_bytes() + topology_.memory_bytes() + wide_.memory_bytes() + wide8_.memory_bytes() +
                        held_bytes(triangles_) + out.kept_build_bytes;
     out.invalid_primitive_count = invalid_count_;
     out.build_peak_bytes = build_peak_bytes_;

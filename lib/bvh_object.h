@@ -11,6 +11,7 @@
 #include "aacbvh/aacbvh.h"
 #include "bvh/bvh.h"
 #include "bvh/bvh_stats.h"
+#include "bvh/compact_topology.h"
 #include "bvh/wide_bvh.h"
 #include "bvh/wide8_bvh.h"
 #include "core/block_cache.h"
@@ -51,7 +52,29 @@ public:
 
     /// Throws Error(AACBVH_ERROR_INVALID_OPERATION) unless a valid tree exists.
     void require_tree() const;
-    const Bvh &tree() const { return bvh_; }
+    /// The binary tree as aacbvh_bvh_get_nodes reports it: the nodes kept,
+    /// or, where only their shape is kept (compact()), nodes made again with
+    /// the boxes of the last build or refit. f(const Bvh &) runs on it.
+    template <class F> void with_tree(F &&f) const {
+        if (!compact()) {
+            f(bvh_);
+            return;
+        }
+        Bvh tree;
+        remake_tree(tree);
+        f(tree);
+    }
+    /// A copy of that tree (for tests).
+    Bvh binary_tree() const {
+        Bvh out;
+        with_tree([&](const Bvh &t) { out = Bvh{Array<Node>(t.nodes), Array<uint32_t>(t.prim_ids)}; });
+        return out;
+    }
+    /// Leaf slots -> the caller's primitive indices (kept in every mode).
+    const Array<uint32_t> &primitive_indices() const { return bvh_.prim_ids; }
+    /// Whether the handle keeps the binary tree's shape only
+    /// (bvh/compact_topology.h): the default 8-wide layout with packets.
+    bool compact() const { return !topology_.empty(); }
     const Geometry &geometry() const { return geometry_; }
     Scheduler &scheduler() const { return scheduler_; }
 
@@ -79,9 +102,24 @@ private:
         WideBvh wide;
         Wide8Bvh wide8;
         Array<float> triangles;
+        /// Set when the binary nodes need not stay (the 8-wide layout with
+        /// packets, a tree in the emitted layout): install() drops them.
+        CompactTopology topology;
     };
     void make_layouts(const Bvh &tree, Layouts &out) const;
     void install(Layouts &layouts) noexcept;
+    /// Into `out`: the binary nodes from the kept shape, with boxes from the
+    /// packets' vertices (those of the last build or refit), united as
+    /// refit_tree() unites them; and the primitive indices. compact() only.
+    void remake_tree(Bvh &out) const;
+    /// compact() only: leaf count, depth and areas by the shape's walk, with
+    /// the packets' vertices.
+    TreeFigures compact_figures() const;
+    /// compact() only: back to keeping the binary nodes (and no 8-wide tree,
+    /// which needs them to be made again).
+    void expand();
+    /// refit() of a compact() handle that keeps its layout.
+    void refit_compact();
     /// The copy the traversals read, or NULL to read the caller's buffers.
     const float *triangle_copy() const { return triangles_.empty() ? nullptr : triangles_.data(); }
 
@@ -91,7 +129,8 @@ private:
     std::unique_ptr<BlockCache> kept_blocks_;
     Geometry geometry_;
     bool geometry_set_ = false;
-    Bvh bvh_;
+    Bvh bvh_; ///< its nodes are empty while compact(): topology_ holds their shape
+    CompactTopology topology_;
     WideBvh wide_; ///< built when params.layout was AACBVH_LAYOUT_WIDE4 at the last build or refit
     /// Built when params.layout was AACBVH_LAYOUT_WIDE8 at the last build or
     /// refit; with copied triangles its packets are the copy (triangles_ stays empty).

@@ -195,8 +195,8 @@ void test_failures_with_kept_memory(void **) {
         set_soup(object, vertices);
         object.build();
         object.build();
-        const aacbvh::Bvh before = aacbvh::Bvh{aacbvh::Array<aacbvh::Node>(object.tree().nodes),
-                                               aacbvh::Array<uint32_t>(object.tree().prim_ids)};
+        const aacbvh::Bvh before = aacbvh::Bvh{aacbvh::Array<aacbvh::Node>(object.binary_tree().nodes),
+                                               aacbvh::Array<uint32_t>(object.binary_tree().prim_ids)};
         const size_t kept = object.kept_build_bytes();
         assert_true(kept > 0); // the failures below hit a build that reuses blocks
         set_soup(object, moved);
@@ -212,15 +212,15 @@ void test_failures_with_kept_memory(void **) {
         }
         const bool reached = aacbvh::testing::alloc_fail_countdown.exchange(0) == 0;
         if (failed) {
-            if (!same_tree(object.tree(), before)) fail_msg("allocation %lld failing changed the tree", (long long)k);
-            if (object.kept_build_bytes() > kept + object.tree().memory_bytes() + 8 * aacbvh::kHugePageBytes)
+            if (!same_tree(object.binary_tree(), before)) fail_msg("allocation %lld failing changed the tree", (long long)k);
+            if (object.kept_build_bytes() > kept + object.binary_tree().memory_bytes() + 8 * aacbvh::kHugePageBytes)
                 fail_msg("allocation %lld failing: %zu bytes kept, %zu before", (long long)k,
                          object.kept_build_bytes(), kept);
             object.build(); // from the kept blocks
         } else {
             assert_false(reached); // a build that reached its failure must fail
         }
-        if (!same_tree(object.tree(), fresh.tree()))
+        if (!same_tree(object.binary_tree(), fresh.binary_tree()))
             fail_msg("after allocation %lld failing, the rebuild differs from a fresh build", (long long)k);
         if (!failed) break;
     }
@@ -236,11 +236,12 @@ void test_wide_tree_is_metered(void **) {
     set_soup(object, vertices);
     object.build();
 
+    const aacbvh::Bvh tree = object.binary_tree();
     aacbvh::MemoryMeter meter;
     aacbvh::WideBvh wide;
     {
         const aacbvh::MemoryMeter::Scope metered(meter);
-        wide.build(object.tree(), scheduler);
+        wide.build(tree, scheduler);
     }
     assert_true(wide.node_count() > 0);
     assert_int_equal(wide.memory_bytes(), wide.node_count() * (sizeof(aacbvh::WideNode) + 4 * sizeof(uint32_t)));

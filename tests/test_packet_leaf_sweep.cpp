@@ -94,7 +94,7 @@ void test_split_sweep_matches_one_loop(void **) {
             object.build();
             char what[64];
             snprintf(what, sizeof what, "builder %d, leaf %d", int(builder), leaf);
-            packet_subtrees += check_tree(object.tree(), what);
+            packet_subtrees += check_tree(object.binary_tree(), what);
         }
     assert_true(packet_subtrees > 0); // the small-subtree rule was exercised
 }
@@ -105,7 +105,7 @@ void test_one_leaf_tree(void **) {
     aacbvh::BvhObject object(scheduler);
     object.set_triangles(soup.data(), 3, 3 * sizeof(float), nullptr, 1);
     object.build();
-    check_tree(object.tree(), "one triangle");
+    check_tree(object.binary_tree(), "one triangle");
 }
 
 } // namespace

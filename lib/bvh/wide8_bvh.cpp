@@ -28,7 +28,7 @@ void set_empty_slot(Wide8Node &node, int k) {
     node.count[k] = 0;
 }
 
-void set_slot_box(Wide8Node &node, int k, const Box &b) {
+void write_slot_box(Wide8Node &node, int k, const Box &b) {
     for (int a = 0; a < 3; ++a) {
         node.box[2 * a][k] = b.lo[a];
         node.box[2 * a + 1][k] = b.hi[a];
@@ -266,7 +266,7 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
                     set_empty_slot(node, k);
                     continue;
                 }
-                set_slot_box(node, k, bnodes[s].box);
+                write_slot_box(node, k, bnodes[s].box);
                 node.child[k] = fields[16 * w + k];
                 node.count[k] = fields[16 * w + 8 + k];
             }
@@ -298,11 +298,30 @@ void Wide8Bvh::refit(const Bvh &bvh, const Geometry &geometry, Scheduler &schedu
     scheduler.parallel_for(0, node_count_, 1u << 10, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i)
             for (int k = 0; k < 8; ++k)
-                if (sources[8 * i + k] != Wide8Node::kEmptyChild) set_slot_box(nodes[i], k, bnodes[sources[8 * i + k]].box);
+                if (sources[8 * i + k] != Wide8Node::kEmptyChild) write_slot_box(nodes[i], k, bnodes[sources[8 * i + k]].box);
     });
+    refill_packets(geometry, scheduler);
+}
+
+void Wide8Bvh::set_slot_box(uint32_t slot, const Box &box) { write_slot_box(nodes_[slot >> 3], int(slot & 7), box); }
+
+void Wide8Bvh::refill_packets(const Geometry &geometry, Scheduler &scheduler) {
     TrianglePacket *packets = packets_.data();
     scheduler.parallel_for(0, packets_.size(), 1u << 12, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i) refill_packet(packets[i], geometry);
+    });
+}
+
+void Wide8Bvh::index_packets(size_t primitive_count, Array<uint32_t> &out, Scheduler &scheduler) const {
+    out.resize(primitive_count);
+    uint32_t *where = out.data();
+    const TrianglePacket *packets = packets_.data();
+    // A primitive sits in one packet (spare lanes repeat that packet's last),
+    // so tasks never write the same entry.
+    scheduler.parallel_for(0, packets_.size(), 1u << 12, [&](size_t b, size_t e) {
+        for (size_t i = b; i < e; ++i)
+            for (uint32_t lane = 0; lane < 4; ++lane)
+                if (packets[i].prim[lane] < primitive_count) where[packets[i].prim[lane]] = uint32_t(4 * i + lane);
     });
 }
 

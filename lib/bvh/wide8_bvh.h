@@ -18,6 +18,7 @@
 #include <cstdint>
 
 #include "bvh/bvh.h"
+#include "core/box.h"
 #include "core/geometry.h"
 #include "core/memory.h"
 #include "core/scheduler.h"
@@ -81,6 +82,33 @@ public:
     /// packets, the triangles' new vertices from `geometry`. No allocation.
     void refit(const Bvh &bvh, const Geometry &geometry, Scheduler &scheduler);
     void clear();
+
+    /// For a handle that keeps the binary tree's shape only
+    /// (bvh/compact_topology.h): the binary node behind each child slot
+    /// (8 per node, kEmptyChild for unused slots), and dropping them once
+    /// encoded there; refit() needs them, the calls below do not.
+    const Array<uint32_t> &sources() const { return sources_; }
+    void release_sources() { Array<uint32_t>().swap(sources_); }
+    /// Child slot `slot` (node slot / 8, child slot % 8) takes `box`.
+    void set_slot_box(uint32_t slot, const Box &box);
+    /// Re-reads every packet's vertices from `geometry` (after a refit).
+    void refill_packets(const Geometry &geometry, Scheduler &scheduler);
+    /// Where each primitive's triangle sits in the packets: out[prim] =
+    /// 4 * packet + lane, for prim < primitive_count (out is resized; a
+    /// primitive in no packet keeps an unspecified value).
+    void index_packets(size_t primitive_count, Array<uint32_t> &out, Scheduler &scheduler) const;
+    /// The box of the triangle at 4 * packet + lane (as Geometry::primitive_box
+    /// makes it: vertex 0, 1, then 2).
+    Box packet_triangle_box(uint32_t where) const {
+        const TrianglePacket &p = packets_[where >> 2];
+        const uint32_t lane = where & 3;
+        Box b = Box::empty();
+        for (int i = 0; i < 3; ++i) {
+            const float v[3] = {p.v[i][0][lane], p.v[i][1][lane], p.v[i][2][lane]};
+            b.extend(v);
+        }
+        return b;
+    }
 
     size_t memory_bytes() const { return held_bytes(nodes_) + held_bytes(sources_) + held_bytes(packets_); }
 
