@@ -68,6 +68,7 @@ void check_tree(const aacbvh::Bvh &tree, const aacbvh::Geometry &geometry, const
     aacbvh::CompactTopology topology;
     if (!topology.encode(tree, sources.data(), sources.size())) fail_msg("%s: not encoded", what);
     assert_int_equal(topology.node_count(), tree.nodes.size());
+    if (tree.nodes.size() >= 4 * size_t(aacbvh::CompactTopology::kTaskNodes)) assert_true(topology.task_depth() > 0);
 
     aacbvh::Array<aacbvh::Node> nodes;
     topology.decode(nodes);
@@ -121,25 +122,39 @@ void check_tree(const aacbvh::Bvh &tree, const aacbvh::Geometry &geometry, const
     assert_true(refused.empty());
 }
 
+void check_build(const std::vector<float> &mesh, aacbvh_builder builder, int leaf, const char *name,
+                 aacbvh::Scheduler &scheduler) {
+    aacbvh::BvhObject object(scheduler);
+    object.set_triangles(mesh.data(), mesh.size() / 3, 3 * sizeof(float), nullptr, mesh.size() / 9);
+    object.set_param_int(AACBVH_PARAM_BUILDER, builder);
+    object.set_param_int(AACBVH_PARAM_MAX_LEAF_SIZE, leaf);
+    object.set_param_int(AACBVH_PARAM_TRAVERSAL_LAYOUT, AACBVH_LAYOUT_BINARY);
+    object.build();
+    char what[64];
+    snprintf(what, sizeof what, "%s, builder %d, leaf %d", name, int(builder), leaf);
+    check_tree(object.binary_tree(), object.geometry(), what);
+}
+
 void test_every_builder_round_trips(void **) {
     aacbvh::Scheduler scheduler(2);
     const std::vector<float> soup = random_soup(6000, 5), line = chain(3000);
     const aacbvh_builder builders[] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_AAC_FAST, AACBVH_BUILDER_BINNED_SAH,
                                        AACBVH_BUILDER_SWEEP_SAH};
-    for (const std::vector<float> *mesh : {&soup, &line})
-        for (aacbvh_builder builder : builders)
-            for (int leaf : {1, 4, 8}) {
-                aacbvh::BvhObject object(scheduler);
-                object.set_triangles(mesh->data(), mesh->size() / 3, 3 * sizeof(float), nullptr, mesh->size() / 9);
-                object.set_param_int(AACBVH_PARAM_BUILDER, builder);
-                object.set_param_int(AACBVH_PARAM_MAX_LEAF_SIZE, leaf);
-                object.set_param_int(AACBVH_PARAM_TRAVERSAL_LAYOUT, AACBVH_LAYOUT_BINARY);
-                object.build();
-                char what[64];
-                snprintf(what, sizeof what, "%s, builder %d, leaf %d", mesh == &soup ? "soup" : "chain", int(builder),
-                         leaf);
-                check_tree(object.binary_tree(), object.geometry(), what);
-            }
+    for (aacbvh_builder builder : builders)
+        for (int leaf : {1, 4, 8}) {
+            check_build(soup, builder, leaf, "soup", scheduler);
+            check_build(line, builder, leaf, "chain", scheduler);
+        }
+}
+
+/// Trees big enough to be walked by tasks (CompactTopology::task_depth()
+/// above 0), balanced and deep.
+void test_walks_split_into_tasks(void **) {
+    aacbvh::Scheduler scheduler(2);
+    const std::vector<float> soup = random_soup(60000, 6), line = chain(20000);
+    check_build(soup, AACBVH_BUILDER_AAC_HQ, 1, "big soup", scheduler);
+    check_build(soup, AACBVH_BUILDER_BINNED_SAH, 4, "big soup", scheduler);
+    check_build(line, AACBVH_BUILDER_AAC_FAST, 1, "long chain", scheduler);
 }
 
 /// The default handle keeps the shape only: its nodes come back the same as
@@ -199,6 +214,7 @@ void test_default_handle_keeps_the_shape(void **) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_every_builder_round_trips),
+        cmocka_unit_test(test_walks_split_into_tasks),
         cmocka_unit_test(test_default_handle_keeps_the_shape),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);

@@ -256,8 +256,13 @@ typedef enum aacbvh_layout {
      *  the CPU has it: chosen at run time, the answers are the same bit for
      *  bit). With AACBVH_TRIANGLES_COPIED its leaves hold the triangles
      *  themselves, four side by side, tested together; that copy replaces
-     *  the 36-byte-per-triangle one of the other layouts. Made by build and
-     *  kept up to date by refit; counted in aacbvh_stats.memory_bytes. */
+     *  the 36-byte-per-triangle one of the other layouts, and the handle
+     *  keeps the binary tree's shape (a byte per node) instead of its
+     *  32-byte nodes: aacbvh_bvh_get_nodes() makes them again from the
+     *  copied triangles, the same as the other layouts report, in time
+     *  linear in the tree on every call (so fetch them in one call).
+     *  Made by build and kept up to date by refit; counted in
+     *  aacbvh_stats.memory_bytes. */
     AACBVH_LAYOUT_WIDE8 = 2,
     AACBVH_LAYOUT_MAX_ENUM = 0x7FFFFFFF
 } aacbvh_layout;
@@ -458,8 +463,10 @@ typedef struct aacbvh_node {
 } aacbvh_node;
 
 /** Copies nodes [first, first + count) into out. Returns AACBVH_OK,
- *  AACBVH_ERROR_INVALID_ARGUMENT (NULL out with count > 0, range past the end)
- *  or AACBVH_ERROR_INVALID_OPERATION (no valid tree). */
+ *  AACBVH_ERROR_INVALID_ARGUMENT (NULL out with count > 0, range past the end),
+ *  AACBVH_ERROR_INVALID_OPERATION (no valid tree) or, where the nodes are
+ *  made again (AACBVH_LAYOUT_WIDE8 with copied triangles, since 1.2),
+ *  AACBVH_ERROR_OUT_OF_MEMORY. */
 AACBVH_API aacbvh_status aacbvh_bvh_get_nodes(const aacbvh_bvh *bvh, size_t first, size_t count,
                                               aacbvh_node *out);
 /** Copies entries [first, first + count) of the primitive index array (length

@@ -15,23 +15,21 @@ void CompactTopology::clear() {
     Array<Part>().swap(parts_);
     Array<Frame>().swap(frames_);
     Array<PartResult>().swap(results_);
+    task_depth_ = 0;
 }
 
 bool CompactTopology::encode(const Bvh &bvh, const uint32_t *sources, size_t slot_count) {
     const size_t n = bvh.nodes.size();
     if (n == 0 || n >= kNone) return false;
     const Node *nodes = bvh.nodes.data();
-    Array<uint8_t> shape(n);
-    for (size_t i = 0; i < n; ++i) {
-        if (nodes[i].count > kMaxLeafCount) return false;
-        shape[i] = uint8_t(nodes[i].count);
-    }
-    Array<uint32_t> slot_of(n, kNone); // binary node -> the wide slot it stands behind
+    // The counts go in as the walk below meets the nodes; the marks first.
+    Array<uint8_t> shape(n, 0);
+    Array<uint32_t> slot_of(n); // binary node -> the wide slot it stands behind (marked nodes only)
     for (size_t s = 0; s < slot_count; ++s) {
         const uint32_t b = sources[s];
         if (b == kNone) continue;
         if (b >= n || (shape[b] & kSourceBit)) return false;
-        shape[b] |= kSourceBit;
+        shape[b] = kSourceBit;
         slot_of[b] = uint32_t(s);
     }
 
@@ -45,6 +43,8 @@ bool CompactTopology::encode(const Bvh &bvh, const uint32_t *sources, size_t slo
         uint32_t pos, child, depth;
         bool has_left;
     };
+    uint32_t task_depth = 0;
+    while (task_depth < kMaxTaskDepth && (n >> task_depth) >= 2 * size_t(kTaskNodes)) ++task_depth;
     std::vector<Part> tasks;
     std::vector<Mark> marks;
     std::vector<Step> stack;
@@ -53,14 +53,15 @@ bool CompactTopology::encode(const Bvh &bvh, const uint32_t *sources, size_t slo
     const size_t slots = bvh.prim_ids.size();
     for (;;) {
         for (;;) {
-            if (part == kTop && depth == kTaskDepth) {
+            if (part == kTop && depth == task_depth) {
                 part = uint32_t(tasks.size());
                 tasks.push_back(Part{pos, depth, pair, slot, 0, 0, 0, 0, 1});
                 task_base = stack.size();
             }
             const Node &node = nodes[pos];
             if (node.count != 0) {
-                if (node.first != slot || node.count > slots - slot) return false;
+                if (node.first != slot || node.count > slots - slot || node.count > kMaxLeafCount) return false;
+                shape[pos] |= uint8_t(node.count);
                 slot += node.count;
                 break;
             }
@@ -133,6 +134,7 @@ bool CompactTopology::encode(const Bvh &bvh, const uint32_t *sources, size_t slo
     parts_ = std::move(parts);
     frames_ = std::move(frames);
     results_ = std::move(results);
+    task_depth_ = task_depth;
     return true;
 }
 

@@ -13,8 +13,8 @@
 // the same walk with two counters. The byte's high bit marks the binary
 // nodes behind the 8-wide tree's child slots.
 //
-// The walk is split for threads: the subtrees whose roots stand kTaskDepth
-// deep are walked by tasks, the top of the tree above them afterwards on
+// The walk is split for threads: the subtrees whose roots stand
+// task_depth() deep are walked by tasks, the top of the tree above them afterwards on
 // the calling thread. Each part adds its areas in its own fixed order and
 // the top adds the parts' sums in walk order, so the figures are the same
 // bits at any thread count.
@@ -38,8 +38,12 @@ public:
     static constexpr uint8_t kSourceBit = 0x80;
     /// Leaves of more primitives than this keep the binary nodes.
     static constexpr uint32_t kMaxLeafCount = 0x7F;
-    /// Subtrees whose roots stand this deep are walked by tasks.
-    static constexpr uint32_t kTaskDepth = 7;
+    /// Subtrees whose roots stand task_depth() deep are walked by tasks:
+    /// about kTaskNodes nodes each in a balanced tree, at most 2^kMaxTaskDepth
+    /// of them (each holds a stack of its height: small trees one task).
+    static constexpr uint32_t kTaskNodes = 1u << 13;
+    static constexpr uint32_t kMaxTaskDepth = 7;
+    uint32_t task_depth() const { return task_depth_; }
 
     bool empty() const { return shape_.empty(); }
     size_t node_count() const { return shape_.size(); }
@@ -101,6 +105,7 @@ private:
     /// run at once.
     mutable Array<Frame> frames_;
     mutable Array<PartResult> results_;
+    uint32_t task_depth_ = 0;
 };
 
 template <class LeafBox, class SetSlot>
@@ -116,7 +121,7 @@ CompactTopology::PartResult CompactTopology::walk_part(const Part &part, bool to
         Box box;
         bool from_task = false;
         for (;;) {
-            if (top && depth == kTaskDepth) {
+            if (top && depth == task_depth_) {
                 const PartResult &t = task_results[task];
                 const Part &tp = parts_[task++];
                 box = t.box;
