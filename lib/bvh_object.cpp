@@ -201,8 +201,7 @@ void BvhObject::make_layouts(const Bvh &tree, Layouts &out) const {
         out.wide8.build(tree, packets_wanted() ? &geometry_ : nullptr, scheduler_);
         // The packets hold the vertices, so the binary boxes can be made
         // again from them: keep the shape only (its refit needs no sources).
-        if (out.wide8.has_packets() && out.topology.encode(tree, out.wide8.sources().data(), out.wide8.sources().size()))
-            out.wide8.release_sources();
+        if (out.wide8.has_packets() && out.topology.encode(tree, scheduler_)) out.wide8.release_sources();
     }
     if (flat_copy_wanted()) {
         out.triangles.resize(9 * tree.prim_ids.size());
@@ -250,7 +249,7 @@ TreeFigures BvhObject::compact_figures() const {
             for (uint32_t k = 0; k < count; ++k) box.extend(wide8_.packet_triangle_box(where[ids[first + k]]));
             return box;
         },
-        [](uint32_t, const Box &) {}, scheduler_);
+        scheduler_);
 }
 
 void BvhObject::expand() {
@@ -342,6 +341,10 @@ void BvhObject::refit() {
 }
 
 void BvhObject::refit_compact() {
+    // What may allocate comes first, so that running out of memory leaves
+    // the tree as it was: the built tree's areas (see refit()), then, when
+    // the statistics were asked for, the new ones (the walk reads the new
+    // geometry and changes nothing).
     {
         std::lock_guard<std::mutex> lock(figures_mutex_);
         if (!built_areas_known_) {
@@ -349,20 +352,26 @@ void BvhObject::refit_compact() {
             built_areas_known_ = true;
         }
     }
-    // From here nothing allocates: the packets, then the walk.
-    wide8_.refill_packets(geometry_, scheduler_);
-    const uint32_t *ids = bvh_.prim_ids.data();
-    const TreeFigures f = topology_.walk(
-        [&](uint32_t first, uint32_t count) {
-            Box box = Box::empty();
-            for (uint32_t k = 0; k < count; ++k) box.extend(geometry_.primitive_box(ids[first + k]));
-            return box;
-        },
-        [&](uint32_t slot, const Box &box) { wide8_.set_slot_box(slot, box); }, scheduler_);
+    bool measure;
     {
         std::lock_guard<std::mutex> lock(figures_mutex_);
-        figures_ = f;
-        figures_known_ = true;
+        measure = figures_known_;
+    }
+    TreeFigures f;
+    if (measure) {
+        const uint32_t *ids = bvh_.prim_ids.data();
+        f = topology_.walk(
+            [&](uint32_t first, uint32_t count) {
+                Box box = Box::empty();
+                for (uint32_t k = 0; k < count; ++k) box.extend(geometry_.primitive_box(ids[first + k]));
+                return box;
+            },
+            scheduler_);
+    }
+    wide8_.refit_from_packets(geometry_, scheduler_);
+    {
+        std::lock_guard<std::mutex> lock(figures_mutex_);
+        if (measure) figures_ = f;
     }
     valid_ = true;
 }

@@ -1,9 +1,10 @@
 // CompactTopology (lib/bvh/compact_topology.h), the binary tree's shape in
 // one byte per node: for every builder and leaf size it must give back each
-// node's first and count, its walk the figures that measure_tree() gives and
-// each wide slot the box of the binary node behind it, the same bits at any
-// thread count; a tree not in the emitted layout must be refused. And the
-// default handle keeps the shape only, answering get_nodes as before.
+// node's first and count, and its walk the figures that measure_tree()
+// gives, the same bits at any thread count. The 8-wide tree refitted from
+// its packets must box every child slot as the refitted binary node behind
+// it. And the default handle keeps the shape only, answering get_nodes,
+// stats and rays as a handle that keeps the nodes does.
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -18,6 +19,7 @@ extern "C" {
 #include <random>
 #include <vector>
 
+#include "bvh/bvh_refit.h"
 #include "bvh/bvh_stats.h"
 #include "bvh/compact_topology.h"
 #include "bvh/wide8_bvh.h"
@@ -62,11 +64,8 @@ bool near(double a, double b) { return std::fabs(a - b) <= 1e-12 * std::fabs(a);
 
 void check_tree(const aacbvh::Bvh &tree, const aacbvh::Geometry &geometry, const char *what) {
     aacbvh::Scheduler one(1), three(3);
-    aacbvh::Wide8Bvh wide;
-    wide.build(tree, &geometry, one);
-    const aacbvh::Array<uint32_t> &sources = wide.sources();
     aacbvh::CompactTopology topology;
-    if (!topology.encode(tree, sources.data(), sources.size())) fail_msg("%s: not encoded", what);
+    if (!topology.encode(tree, one)) fail_msg("%s: not encoded", what);
     assert_int_equal(topology.node_count(), tree.nodes.size());
     if (tree.nodes.size() >= 4 * size_t(aacbvh::CompactTopology::kTaskNodes)) assert_true(topology.task_depth() > 0);
 
@@ -80,17 +79,11 @@ void check_tree(const aacbvh::Bvh &tree, const aacbvh::Geometry &geometry, const
     const aacbvh::TreeFigures want = aacbvh::measure_tree(tree, one);
     aacbvh::TreeFigures first_figures;
     for (aacbvh::Scheduler *s : {&one, &three}) {
-        std::vector<aacbvh::Box> slot_box(sources.size(), aacbvh::Box::empty());
-        std::vector<int> calls(sources.size(), 0);
         const aacbvh::TreeFigures f = topology.walk(
             [&](uint32_t first, uint32_t count) {
                 aacbvh::Box b = aacbvh::Box::empty();
                 for (uint32_t k = 0; k < count; ++k) b.extend(geometry.primitive_box(tree.prim_ids[first + k]));
                 return b;
-            },
-            [&](uint32_t slot, const aacbvh::Box &b) {
-                slot_box[slot] = b;
-                ++calls[slot];
             },
             *s);
         if (f.leaf_count != want.leaf_count || f.max_depth != want.max_depth)
@@ -105,21 +98,37 @@ void check_tree(const aacbvh::Bvh &tree, const aacbvh::Geometry &geometry, const
             first_figures = f;
         else if (std::memcmp(&first_figures.areas, &f.areas, sizeof f.areas) != 0)
             fail_msg("%s: the walk's areas differ between 1 and 3 threads", what);
-        for (size_t k = 0; k < sources.size(); ++k) {
-            const bool used = sources[k] != aacbvh::Wide8Node::kEmptyChild;
-            if (calls[k] != (used ? 1 : 0)) fail_msg("%s: slot %zu set %d times", what, k, calls[k]);
-            if (used && !same_box(slot_box[k], tree.nodes[sources[k]].box))
-                fail_msg("%s: slot %zu's box is not binary node %u's", what, k, sources[k]);
-        }
     }
+}
 
-    // Not the emitted layout: refused, and the topology stays empty.
-    aacbvh::Bvh moved{aacbvh::Array<aacbvh::Node>(tree.nodes), aacbvh::Array<uint32_t>(tree.prim_ids)};
-    const size_t last = moved.nodes.size() - 1;
-    moved.nodes[last].first += 1;
-    aacbvh::CompactTopology refused;
-    assert_false(refused.encode(moved, sources.data(), sources.size()));
-    assert_true(refused.empty());
+/// The 8-wide tree refitted from its packets has, in every child slot, the
+/// box of the binary node behind it as refit_tree() makes it.
+void check_packet_refit(const aacbvh::Bvh &tree, const aacbvh::Geometry &geometry, const std::vector<float> &mesh,
+                        const char *what) {
+    aacbvh::Scheduler scheduler(3);
+    aacbvh::Wide8Bvh wide;
+    wide.build(tree, &geometry, scheduler);
+    std::vector<float> moved(mesh);
+    for (size_t i = 0; i < moved.size(); ++i) moved[i] += 0.03f * std::sin(float(i) * 0.7f);
+    aacbvh::Geometry g = geometry;
+    g.vertices = moved.data();
+    aacbvh::Bvh refitted{aacbvh::Array<aacbvh::Node>(tree.nodes), aacbvh::Array<uint32_t>(tree.prim_ids)};
+    aacbvh::refit_tree(refitted, g, scheduler);
+    wide.refit_from_packets(g, scheduler);
+    const aacbvh::Array<uint32_t> &sources = wide.sources();
+    for (size_t w = 0; w < wide.node_count(); ++w)
+        for (int k = 0; k < 8; ++k) {
+            const uint32_t s = sources[8 * w + k];
+            const aacbvh::Wide8Node &node = wide.nodes()[w];
+            if (s == aacbvh::Wide8Node::kEmptyChild) {
+                if (!(node.box[0][k] > node.box[1][k])) fail_msg("%s: unused slot %zu.%d not empty", what, w, k);
+                continue;
+            }
+            const aacbvh::Box &b = refitted.nodes[s].box;
+            for (int a = 0; a < 3; ++a)
+                if (node.box[2 * a][k] != b.lo[a] || node.box[2 * a + 1][k] != b.hi[a])
+                    fail_msg("%s: slot %zu.%d is not binary node %u's box after the refit", what, w, k, s);
+        }
 }
 
 void check_build(const std::vector<float> &mesh, aacbvh_builder builder, int leaf, const char *name,
@@ -132,7 +141,9 @@ void check_build(const std::vector<float> &mesh, aacbvh_builder builder, int lea
     object.build();
     char what[64];
     snprintf(what, sizeof what, "%s, builder %d, leaf %d", name, int(builder), leaf);
-    check_tree(object.binary_tree(), object.geometry(), what);
+    const aacbvh::Bvh tree = object.binary_tree();
+    check_tree(tree, object.geometry(), what);
+    check_packet_refit(tree, object.geometry(), mesh, what);
 }
 
 void test_every_builder_round_trips(void **) {

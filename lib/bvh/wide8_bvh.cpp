@@ -303,13 +303,52 @@ void Wide8Bvh::refit(const Bvh &bvh, const Geometry &geometry, Scheduler &schedu
     refill_packets(geometry, scheduler);
 }
 
-void Wide8Bvh::set_slot_box(uint32_t slot, const Box &box) { write_slot_box(nodes_[slot >> 3], int(slot & 7), box); }
-
 void Wide8Bvh::refill_packets(const Geometry &geometry, Scheduler &scheduler) {
     TrianglePacket *packets = packets_.data();
     scheduler.parallel_for(0, packets_.size(), 1u << 12, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i) refill_packet(packets[i], geometry);
     });
+}
+
+void Wide8Bvh::refit_from_packets(const Geometry &geometry, Scheduler &scheduler) {
+    Wide8Node *nodes = nodes_.data();
+    TrianglePacket *packets = packets_.data();
+    // Each packet belongs to one leaf child: refilled there, and boxed while
+    // its vertices are at hand. The expensive part, and independent.
+    scheduler.parallel_for(0, node_count_, 1u << 10, [&](size_t b, size_t e) {
+        for (size_t w = b; w < e; ++w)
+            for (int k = 0; k < 8; ++k) {
+                const uint32_t count = nodes[w].count[k];
+                if (count == 0) continue;
+                Box box = Box::empty();
+                for (uint32_t p = nodes[w].child[k], end = p + count; p < end; ++p) {
+                    TrianglePacket &packet = packets[p];
+                    refill_packet(packet, geometry);
+                    for (int lane = 0; lane < 4; ++lane)
+                        for (int i = 0; i < 3; ++i) {
+                            const float v[3] = {packet.v[i][0][lane], packet.v[i][1][lane], packet.v[i][2][lane]};
+                            box.extend(v);
+                        }
+                }
+                write_slot_box(nodes[w], k, box);
+            }
+    });
+    // Children are numbered after their parents, so a reverse sweep is
+    // bottom-up; an unused slot's empty box adds nothing to a union.
+    for (size_t w = node_count_; w-- > 0;)
+        for (int k = 0; k < 8; ++k) {
+            if (nodes[w].count[k] != 0 || nodes[w].child[k] == Wide8Node::kEmptyChild) continue;
+            const Wide8Node &c = nodes[nodes[w].child[k]];
+            for (int a = 0; a < 3; ++a) {
+                float lo = c.box[2 * a][0], hi = c.box[2 * a + 1][0];
+                for (int j = 1; j < 8; ++j) {
+                    lo = std::min(lo, c.box[2 * a][j]);
+                    hi = std::max(hi, c.box[2 * a + 1][j]);
+                }
+                nodes[w].box[2 * a][k] = lo;
+                nodes[w].box[2 * a + 1][k] = hi;
+            }
+        }
 }
 
 void Wide8Bvh::index_packets(size_t primitive_count, Array<uint32_t> &out, Scheduler &scheduler) const {

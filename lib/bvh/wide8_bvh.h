@@ -85,14 +85,16 @@ public:
 
     /// For a handle that keeps the binary tree's shape only
     /// (bvh/compact_topology.h): the binary node behind each child slot
-    /// (8 per node, kEmptyChild for unused slots), and dropping them once
-    /// encoded there; refit() needs them, the calls below do not.
+    /// (8 per node, kEmptyChild for unused slots), dropped when the handle
+    /// keeps the shape only; refit() needs them, the calls below do not.
     const Array<uint32_t> &sources() const { return sources_; }
     void release_sources() { Array<uint32_t>().swap(sources_); }
-    /// Child slot `slot` (node slot / 8, child slot % 8) takes `box`.
-    void set_slot_box(uint32_t slot, const Box &box);
-    /// Re-reads every packet's vertices from `geometry` (after a refit).
-    void refill_packets(const Geometry &geometry, Scheduler &scheduler);
+    /// Refit of a tree with packets, from its own packets: re-reads their
+    /// vertices from `geometry`, then boxes each leaf child by its packets'
+    /// triangles and each inner child by its node's children, bottom-up.
+    /// The boxes are the binary nodes' own (unions of the same triangles'
+    /// boxes; only the sign of a zero may differ). No allocation.
+    void refit_from_packets(const Geometry &geometry, Scheduler &scheduler);
     /// Where each primitive's triangle sits in the packets: out[prim] =
     /// 4 * packet + lane, for prim < primitive_count (out is resized; a
     /// primitive in no packet keeps an unspecified value).
@@ -113,6 +115,9 @@ public:
     size_t memory_bytes() const { return held_bytes(nodes_) + held_bytes(sources_) + held_bytes(packets_); }
 
 private:
+    /// Re-reads every packet's vertices from `geometry`.
+    void refill_packets(const Geometry &geometry, Scheduler &scheduler);
+
     Array<Wide8Node> nodes_;
     /// For refit: the binary node behind each child slot (8 per wide node,
     /// kEmptyChild for unused slots). Kept apart: traversal never reads it.
