@@ -360,8 +360,17 @@ void BvhObject::refit_compact() {
     TreeFigures f;
     if (measure) {
         const uint32_t *ids = bvh_.prim_ids.data();
+        const size_t slots = bvh_.prim_ids.size();
+        const bool triangles = geometry_.kind == GeometryKind::Triangles;
         f = topology_.walk(
             [&](uint32_t first, uint32_t count) {
+                // The walk's branches would stall on each leaf's reads: ask
+                // for the triangles a few leaves ahead (index, then vertices).
+                if (triangles && first + count + 32 <= slots)
+                    for (uint32_t k = 0; k < count; ++k) {
+                        geometry_.prefetch_indices(ids[first + 32 + k]);
+                        geometry_.prefetch_vertices(ids[first + 16 + k]);
+                    }
                 Box box = Box::empty();
                 for (uint32_t k = 0; k < count; ++k) box.extend(geometry_.primitive_box(ids[first + k]));
                 return box;

@@ -15,6 +15,7 @@ void Wide8Bvh::clear() {
     Array<Wide8Node>().swap(nodes_);
     Array<uint32_t>().swap(sources_);
     Array<TrianglePacket>().swap(packets_);
+    Array<uint32_t>().swap(packet_owner_);
     node_count_ = 0;
     built_ = false;
 }
@@ -256,6 +257,7 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     // Pass 2, in parallel: nodes and packets.
     Array<Wide8Node> nodes(next);
     Array<TrianglePacket> packet_array(packets ? next_packet : 0);
+    Array<uint32_t> packet_owner(packets ? next_packet : 0);
     const uint32_t *prim_ids = bvh.prim_ids.data();
     scheduler.parallel_for(0, next, 1u << 10, [&](size_t b, size_t e) {
         for (size_t w = b; w < e; ++w) {
@@ -269,6 +271,8 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
                 write_slot_box(node, k, bnodes[s].box);
                 node.child[k] = fields[16 * w + k];
                 node.count[k] = fields[16 * w + 8 + k];
+                if (packets)
+                    for (uint32_t j = 0; j < node.count[k]; ++j) packet_owner[node.child[k] + j] = uint32_t(8 * w + k);
             }
         }
     });
@@ -287,6 +291,7 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     nodes_ = std::move(nodes);
     sources_ = std::move(sources);
     packets_ = std::move(packet_array);
+    packet_owner_ = std::move(packet_owner);
     node_count_ = next;
     built_ = true;
 }
@@ -313,25 +318,33 @@ void Wide8Bvh::refill_packets(const Geometry &geometry, Scheduler &scheduler) {
 void Wide8Bvh::refit_from_packets(const Geometry &geometry, Scheduler &scheduler) {
     Wide8Node *nodes = nodes_.data();
     TrianglePacket *packets = packets_.data();
-    // Each packet belongs to one leaf child: refilled there, and boxed while
-    // its vertices are at hand. The expensive part, and independent.
-    scheduler.parallel_for(0, node_count_, 1u << 10, [&](size_t b, size_t e) {
-        for (size_t w = b; w < e; ++w)
-            for (int k = 0; k < 8; ++k) {
-                const uint32_t count = nodes[w].count[k];
-                if (count == 0) continue;
-                Box box = Box::empty();
-                for (uint32_t p = nodes[w].child[k], end = p + count; p < end; ++p) {
-                    TrianglePacket &packet = packets[p];
-                    refill_packet(packet, geometry);
-                    for (int lane = 0; lane < 4; ++lane)
-                        for (int i = 0; i < 3; ++i) {
-                            const float v[3] = {packet.v[i][0][lane], packet.v[i][1][lane], packet.v[i][2][lane]};
-                            box.extend(v);
-                        }
-                }
-                write_slot_box(nodes[w], k, box);
+    const uint32_t *owner = packet_owner_.data();
+    const size_t count = packets_.size();
+    // In packet order (the collapse's depth-first order, not the nodes'):
+    // each packet refilled, and its leaf child boxed while the vertices are
+    // at hand. A chunk boxes the leaves that start in it, to their ends.
+    scheduler.parallel_for(0, count, 1u << 12, [&](size_t b, size_t e) {
+        size_t p = b;
+        while (p < count && p > 0 && owner[p] == owner[p - 1]) ++p; // the previous chunk's leaf
+        while (p < e) {
+            const uint32_t slot = owner[p];
+            Box box = Box::empty();
+            for (; p < count && owner[p] == slot; ++p) {
+                // Random reads: asked for ahead (the index, then the vertices).
+                if (p + 8 < count)
+                    for (int lane = 0; lane < 4; ++lane) geometry.prefetch_indices(packets[p + 8].prim[lane]);
+                if (p + 4 < count)
+                    for (int lane = 0; lane < 4; ++lane) geometry.prefetch_vertices(packets[p + 4].prim[lane]);
+                TrianglePacket &packet = packets[p];
+                refill_packet(packet, geometry);
+                for (int lane = 0; lane < 4; ++lane)
+                    for (int i = 0; i < 3; ++i) {
+                        const float v[3] = {packet.v[i][0][lane], packet.v[i][1][lane], packet.v[i][2][lane]};
+                        box.extend(v);
+                    }
             }
+            write_slot_box(nodes[slot >> 3], int(slot & 7), box);
+        }
     });
     // Children are numbered after their parents, so a reverse sweep is
     // bottom-up; an unused slot's empty box adds nothing to a union.

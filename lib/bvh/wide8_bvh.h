@@ -112,7 +112,9 @@ public:
         return b;
     }
 
-    size_t memory_bytes() const { return held_bytes(nodes_) + held_bytes(sources_) + held_bytes(packets_); }
+    size_t memory_bytes() const {
+        return held_bytes(nodes_) + held_bytes(sources_) + held_bytes(packets_) + held_bytes(packet_owner_);
+    }
 
 private:
     /// Re-reads every packet's vertices from `geometry`.
@@ -123,6 +125,8 @@ private:
     /// kEmptyChild for unused slots). Kept apart: traversal never reads it.
     Array<uint32_t> sources_;
     Array<TrianglePacket> packets_;
+    /// For refit_from_packets: each packet's leaf child slot (8 * node + k).
+    Array<uint32_t> packet_owner_;
     size_t node_count_ = 0;
     bool built_ = false;
 };
