@@ -10,8 +10,11 @@
 // is most likely to enter, the SAH's weight) until it has eight children or
 // only leaves. With packets, a binary subtree of at most kPacketLeaf
 // primitives becomes one leaf (one packet test instead of its inner nodes).
-// The binary tree stays: aacbvh_bvh_get_nodes() reports it and refit runs on
-// it, then copies its boxes here.
+// Without packets the binary tree stays: aacbvh_bvh_get_nodes() reports it
+// and refit runs on it, then copies its boxes here (through sources_). With
+// packets the handle keeps only the binary tree's shape
+// (bvh/compact_topology.h) and this tree refits from its own packets
+// (refit_from_packets), which hold the triangles of the last build or refit.
 #pragma once
 
 #include <cstddef>
