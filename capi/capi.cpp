@@ -99,18 +99,23 @@ template <class Enum> int32_t enum_value(const Enum &e) {
     return v;
 }
 
+/// Throws INVALID_ARGUMENT for a NULL `out` with entries to copy, or a range
+/// [first, first + count) past `length`, naming both (`what` / `length_name`).
+void check_range(size_t length, size_t first, size_t count, const void *out, const char *what,
+                 const char *length_name) {
+    if (count > 0 && !out) throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "out is NULL");
+    if (first > length || count > length - first)
+        throw Error(AACBVH_ERROR_INVALID_ARGUMENT, std::string(what) + " [" + std::to_string(first) + ", " +
+                                                       std::to_string(first) + " + " + std::to_string(count) +
+                                                       ") is past the " + length_name + " " + std::to_string(length));
+}
+
 /// Copies entries [first, first + count) of `from` into `out` (the C API's
-/// element type, of the same layout), or throws INVALID_ARGUMENT naming the
-/// range and the array's length (`what` / `length_name`).
+/// element type, of the same layout) after check_range().
 template <class Array, class Out>
 void copy_range(const Array &from, size_t first, size_t count, Out *out, const char *what, const char *length_name) {
     static_assert(sizeof(*from.data()) == sizeof(Out), "the C type must have the internal layout");
-    if (count > 0 && !out) throw Error(AACBVH_ERROR_INVALID_ARGUMENT, "out is NULL");
-    if (first > from.size() || count > from.size() - first)
-        throw Error(AACBVH_ERROR_INVALID_ARGUMENT, std::string(what) + " [" + std::to_string(first) + ", " +
-                                                       std::to_string(first) + " + " + std::to_string(count) +
-                                                       ") is past the " + length_name + " " +
-                                                       std::to_string(from.size()));
+    check_range(from.size(), first, count, out, what, length_name);
     if (count > 0) std::memcpy(out, from.data() + first, count * sizeof(Out));
 }
 
@@ -281,6 +286,9 @@ aacbvh_status aacbvh_bvh_get_nodes(const aacbvh_bvh *bvh, size_t first, size_t c
     AACBVH_REQUIRE_HANDLE(bvh);
     return guarded(bvh, [&] {
         bvh->object.require_tree();
+        // Checked first: the default layout makes the nodes again for a copy.
+        check_range(bvh->object.node_count(), first, count, out, "node range", "node count");
+        if (count == 0) return;
         bvh->object.with_tree(
             [&](const aacbvh::Bvh &tree) { copy_range(tree.nodes, first, count, out, "node range", "node count"); });
     });

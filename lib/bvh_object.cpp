@@ -456,7 +456,7 @@ void BvhObject::stats(aacbvh_stats &out) const {
     require_tree();
     const TreeFigures f = figures();
     out.max_depth = f.max_depth;
-    out.node_count = compact() ? topology_.node_count() : bvh_.nodes.size();
+    out.node_count = node_count();
     out.leaf_count = f.leaf_count;
     out.primitive_count = bvh_.prim_ids.size();
     out.sah_cost = f.areas.sah_cost(params.traversal_cost, params.intersection_cost);

@@ -70,6 +70,8 @@ public:
         with_tree([&](const Bvh &t) { out = Bvh{Array<Node>(t.nodes), Array<uint32_t>(t.prim_ids)}; });
         return out;
     }
+    /// The binary tree's node count (kept or made again alike).
+    size_t node_count() const { return compact() ? topology_.node_count() : bvh_.nodes.size(); }
     /// Leaf slots -> the caller's primitive indices (kept in every mode).
     const Array<uint32_t> &primitive_indices() const { return bvh_.prim_ids; }
     /// Whether the handle keeps the binary tree's shape only
