@@ -286,11 +286,9 @@ aacbvh_status aacbvh_bvh_get_nodes(const aacbvh_bvh *bvh, size_t first, size_t c
     AACBVH_REQUIRE_HANDLE(bvh);
     return guarded(bvh, [&] {
         bvh->object.require_tree();
-        // Checked first: the default layout makes the nodes again for a copy.
         check_range(bvh->object.node_count(), first, count, out, "node range", "node count");
-        if (count == 0) return;
-        bvh->object.with_tree(
-            [&](const aacbvh::Bvh &tree) { copy_range(tree.nodes, first, count, out, "node range", "node count"); });
+        static_assert(sizeof(aacbvh::Node) == sizeof(aacbvh_node), "the C type must have the internal layout");
+        bvh->object.copy_nodes(first, count, out);
     });
 }
 

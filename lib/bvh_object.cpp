@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <utility>
@@ -215,16 +216,21 @@ void BvhObject::install(Layouts &layouts) noexcept {
     triangles_.swap(layouts.triangles);
     topology_ = std::move(layouts.topology);
     if (compact()) Array<Node>().swap(bvh_.nodes);
+    drop_made_nodes();
 }
 
 void BvhObject::remake_tree(Bvh &out) const {
+    out.prim_ids = bvh_.prim_ids;
+    remake_nodes(out.nodes);
+}
+
+void BvhObject::remake_nodes(Array<Node> &out) const {
     Array<uint32_t> where;
     wide8_.index_packets(geometry_.primitive_count, where, scheduler_);
-    out.prim_ids = bvh_.prim_ids;
-    topology_.decode(out.nodes);
-    Node *nodes = out.nodes.data();
-    const uint32_t *ids = out.prim_ids.data();
-    scheduler_.parallel_for(0, out.nodes.size(), 1u << 13, [&](size_t b, size_t e) {
+    topology_.decode(out);
+    Node *nodes = out.data();
+    const uint32_t *ids = bvh_.prim_ids.data();
+    scheduler_.parallel_for(0, out.size(), 1u << 13, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i) {
             Node &node = nodes[i];
             if (!node.is_leaf()) continue;
@@ -233,10 +239,32 @@ void BvhObject::remake_tree(Bvh &out) const {
             node.box = box;
         }
     });
-    for (size_t i = out.nodes.size(); i-- > 0;) {
+    for (size_t i = out.size(); i-- > 0;) {
         Node &node = nodes[i];
         if (!node.is_leaf()) node.box = unite(nodes[node.first].box, nodes[node.first + 1].box);
     }
+}
+
+void BvhObject::copy_nodes(size_t first, size_t count, void *out) const {
+    if (count == 0) return;
+    if (!compact()) {
+        std::memcpy(out, bvh_.nodes.data() + first, count * sizeof(Node));
+        return;
+    }
+    std::lock_guard<std::mutex> lock(made_nodes_mutex_);
+    if (made_nodes_.empty() && count < topology_.node_count()) remake_nodes(made_nodes_);
+    if (!made_nodes_.empty()) {
+        std::memcpy(out, made_nodes_.data() + first, count * sizeof(Node));
+        return;
+    }
+    Array<Node> nodes;
+    remake_nodes(nodes);
+    std::memcpy(out, nodes.data() + first, count * sizeof(Node));
+}
+
+void BvhObject::drop_made_nodes() noexcept {
+    std::lock_guard<std::mutex> lock(made_nodes_mutex_);
+    Array<Node>().swap(made_nodes_);
 }
 
 TreeFigures BvhObject::compact_figures() const {
@@ -258,6 +286,7 @@ void BvhObject::expand() {
     bvh_.nodes.swap(full.nodes);
     topology_.clear();
     wide8_.clear();
+    drop_made_nodes();
 }
 
 bool BvhObject::packets_wanted() const {
@@ -290,8 +319,8 @@ void BvhObject::refit() {
     if (bad != SIZE_MAX)
         throw Error(AACBVH_ERROR_INVALID_GEOMETRY, std::string(geometry_.kind == GeometryKind::Boxes ? "box " : "triangle ") +
                                                        std::to_string(bad) + " " + primitive_problem(geometry_, bad));
-    // Only the binary tree's shape is kept: the walk over it gives the wide
-    // nodes their boxes and the statistics their areas.
+    // Only the binary tree's shape is kept: the 8-wide tree refits from its
+    // packets, and a walk over the shape gives the statistics their areas.
     if (compact() && params.layout == AACBVH_LAYOUT_WIDE8 && packets_wanted()) {
         refit_compact();
         return;
@@ -378,6 +407,7 @@ void BvhObject::refit_compact() {
             scheduler_);
     }
     wide8_.refit_from_packets(geometry_, scheduler_);
+    drop_made_nodes(); // their boxes are the old ones
     {
         std::lock_guard<std::mutex> lock(figures_mutex_);
         if (measure) figures_ = f;
@@ -461,8 +491,13 @@ void BvhObject::stats(aacbvh_stats &out) const {
     out.primitive_count = bvh_.prim_ids.size();
     out.sah_cost = f.areas.sah_cost(params.traversal_cost, params.intersection_cost);
     out.kept_build_bytes = kept_build_bytes();
-    out.memory_bytes = sizeof(*this) + bvh_.memory_bytes() + topology_.memory_bytes() + wide_.memory_bytes() + wide8_.memory_bytes() +
-                       held_bytes(triangles_) + out.kept_build_bytes;
+    size_t made_bytes;
+    {
+        std::lock_guard<std::mutex> lock(made_nodes_mutex_);
+        made_bytes = held_bytes(made_nodes_);
+    }
+    out.memory_bytes = sizeof(*this) + bvh_.memory_bytes() + topology_.memory_bytes() + wide_.memory_bytes() +
+                       wide8_.memory_bytes() + held_bytes(triangles_) + made_bytes + out.kept_build_bytes;
     out.invalid_primitive_count = invalid_count_;
     out.build_peak_bytes = build_peak_bytes_;
     AreaSums built;

@@ -64,6 +64,12 @@ public:
         remake_tree(tree);
         f(tree);
     }
+    /// Nodes [first, first + count) of that tree into `out` (32-byte
+    /// aacbvh_node / Node records; the range is the caller's to check). Where the nodes are made again, a partial
+    /// range keeps them, counted in memory_bytes, until the tree next
+    /// changes: a caller reading node by node pays for one making, not one
+    /// per node; a whole-tree copy keeps nothing.
+    void copy_nodes(size_t first, size_t count, void *out) const;
     /// A copy of that tree (for tests).
     Bvh binary_tree() const {
         Bvh out;
@@ -114,6 +120,9 @@ private:
     /// packets' vertices (those of the last build or refit), united as
     /// refit_tree() unites them; and the primitive indices. compact() only.
     void remake_tree(Bvh &out) const;
+    void remake_nodes(Array<Node> &out) const;
+    /// Frees the nodes copy_nodes() kept (the tree changed).
+    void drop_made_nodes() noexcept;
     /// compact() only: leaf count, depth and areas by the shape's walk, with
     /// the packets' vertices.
     TreeFigures compact_figures() const;
@@ -133,6 +142,8 @@ private:
     bool geometry_set_ = false;
     Bvh bvh_; ///< its nodes are empty while compact(): topology_ holds their shape
     CompactTopology topology_;
+    mutable std::mutex made_nodes_mutex_;
+    mutable Array<Node> made_nodes_; ///< see copy_nodes(); empty unless compact()
     WideBvh wide_; ///< built when params.layout was AACBVH_LAYOUT_WIDE4 at the last build or refit
     /// Built when params.layout was AACBVH_LAYOUT_WIDE8 at the last build or
     /// refit; with copied triangles its packets are the copy (triangles_ stays empty).

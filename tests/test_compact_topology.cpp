@@ -214,6 +214,26 @@ void test_default_handle_keeps_the_shape(void **) {
     kept.optimize(2);
     assert_true(compact.compact());
     check("optimised");
+    // Node by node: the first partial copy makes the nodes and keeps them
+    // (counted in memory_bytes) until the tree changes.
+    {
+        const aacbvh::Bvh whole = compact.binary_tree();
+        aacbvh_stats lean{}, kept_nodes{}, refitted{};
+        compact.stats(lean);
+        for (size_t i = 0; i < whole.nodes.size(); i += 97) {
+            aacbvh::Node node;
+            compact.copy_nodes(i, 1, &node);
+            if (std::memcmp(&node, &whole.nodes[i], sizeof node) != 0) fail_msg("node %zu copied alone differs", i);
+        }
+        compact.stats(kept_nodes);
+        assert_true(kept_nodes.memory_bytes >= lean.memory_bytes + 32 * lean.node_count);
+        std::vector<aacbvh::Node> all(whole.nodes.size());
+        compact.copy_nodes(0, all.size(), all.data());
+        assert_memory_equal(all.data(), whole.nodes.data(), all.size() * sizeof(aacbvh::Node));
+        compact.refit();
+        compact.stats(refitted);
+        assert_int_equal(refitted.memory_bytes, lean.memory_bytes);
+    }
     compact.set_param_int(AACBVH_PARAM_TRAVERSAL_LAYOUT, AACBVH_LAYOUT_WIDE4);
     compact.refit();
     assert_false(compact.compact());
