@@ -260,7 +260,10 @@ typedef enum aacbvh_layout {
      *  keeps the binary tree's shape (a byte per node) instead of its
      *  32-byte nodes: aacbvh_bvh_get_nodes() makes them again from the
      *  copied triangles, the same as the other layouts report, in time
-     *  linear in the tree on every call (so fetch them in one call).
+     *  linear in the tree. A call for all nodes keeps nothing; a call for
+     *  part of them keeps them (counted in aacbvh_stats.memory_bytes) until
+     *  the next build, refit or optimize, so reading them in pieces costs
+     *  one making.
      *  Made by build and kept up to date by refit; counted in
      *  aacbvh_stats.memory_bytes. */
     AACBVH_LAYOUT_WIDE8 = 2,
