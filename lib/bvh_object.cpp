@@ -224,20 +224,20 @@ void BvhObject::remake_tree(Bvh &out) const {
     remake_nodes(out.nodes);
 }
 
+Box BvhObject::packet_leaf_box(const uint32_t *where, uint32_t first, uint32_t count) const {
+    Box box = Box::empty();
+    for (uint32_t k = 0; k < count; ++k) box.extend(wide8_.packet_triangle_box(where[bvh_.prim_ids[first + k]]));
+    return box;
+}
+
 void BvhObject::remake_nodes(Array<Node> &out) const {
     Array<uint32_t> where;
     wide8_.index_packets(geometry_.primitive_count, where, scheduler_);
     topology_.decode(out);
     Node *nodes = out.data();
-    const uint32_t *ids = bvh_.prim_ids.data();
     scheduler_.parallel_for(0, out.size(), 1u << 13, [&](size_t b, size_t e) {
-        for (size_t i = b; i < e; ++i) {
-            Node &node = nodes[i];
-            if (!node.is_leaf()) continue;
-            Box box = Box::empty();
-            for (uint32_t k = 0; k < node.count; ++k) box.extend(wide8_.packet_triangle_box(where[ids[node.first + k]]));
-            node.box = box;
-        }
+        for (size_t i = b; i < e; ++i)
+            if (nodes[i].is_leaf()) nodes[i].box = packet_leaf_box(where.data(), nodes[i].first, nodes[i].count);
     });
     for (size_t i = out.size(); i-- > 0;) {
         Node &node = nodes[i];
@@ -270,14 +270,8 @@ void BvhObject::drop_made_nodes() noexcept {
 TreeFigures BvhObject::compact_figures() const {
     Array<uint32_t> where;
     wide8_.index_packets(geometry_.primitive_count, where, scheduler_);
-    const uint32_t *ids = bvh_.prim_ids.data();
-    return topology_.walk(
-        [&](uint32_t first, uint32_t count) {
-            Box box = Box::empty();
-            for (uint32_t k = 0; k < count; ++k) box.extend(wide8_.packet_triangle_box(where[ids[first + k]]));
-            return box;
-        },
-        scheduler_);
+    return topology_.walk([&](uint32_t first, uint32_t count) { return packet_leaf_box(where.data(), first, count); },
+                          scheduler_);
 }
 
 void BvhObject::expand() {
@@ -434,10 +428,14 @@ void BvhObject::optimize(uint32_t passes) {
     }
     // Like a build, into temporaries: the handle changes only on success.
     const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost};
+    // The current tree, made once from the packets where only its shape is kept.
+    Bvh remade;
+    if (compact()) remake_tree(remade);
+    const Bvh &current = compact() ? remade : bvh_;
     Bvh result;
     {
         BinaryTree tree;
-        with_tree([&](const Bvh &current) { unflatten(current, geometry_, ctx, tree); });
+        unflatten(current, geometry_, ctx, tree);
         ctx.report(0.05);
         SubtreeChoices choices;
         choose_subtrees(tree, rule, ctx, choices);
@@ -447,10 +445,7 @@ void BvhObject::optimize(uint32_t passes) {
     // The SAH as stats report it never rises: a tree that would cost more
     // (rounding, or leaves over a max_leaf_size lowered since the build) is
     // not taken.
-    double before = 0.0;
-    with_tree([&](const Bvh &current) {
-        before = sum_areas(current, scheduler_).sah_cost(params.traversal_cost, params.intersection_cost);
-    });
+    const double before = sum_areas(current, scheduler_).sah_cost(params.traversal_cost, params.intersection_cost);
     const double after = sum_areas(result, scheduler_).sah_cost(params.traversal_cost, params.intersection_cost);
     if (!(after < before)) {
         ctx.report(1.0);

@@ -121,6 +121,9 @@ private:
     /// refit_tree() unites them; and the primitive indices. compact() only.
     void remake_tree(Bvh &out) const;
     void remake_nodes(Array<Node> &out) const;
+    /// A leaf's box from the packets' triangles: slots [first, first + count),
+    /// `where` from Wide8Bvh::index_packets().
+    Box packet_leaf_box(const uint32_t *where, uint32_t first, uint32_t count) const;
     /// Frees the nodes copy_nodes() kept (the tree changed).
     void drop_made_nodes() noexcept;
     /// compact() only: leaf count, depth and areas by the shape's walk, with

@@ -13,29 +13,16 @@ extern "C" {
 }
 
 #include <cstring>
-#include <random>
 #include <vector>
 
 #include "bvh/packet_leaf_sweep.h"
 #include "bvh_object.h"
 #include "core/scheduler.h"
+#include "random_soup.h"
 
 namespace {
 
-/// Random triangles: most small, some long, in [-1, 1]^3.
-std::vector<float> random_soup(size_t triangles, unsigned seed) {
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<float> u(-1.0f, 1.0f), small(-0.02f, 0.02f);
-    std::vector<float> v(9 * triangles);
-    for (size_t t = 0; t < triangles; ++t) {
-        const bool big = t % 16 == 0;
-        for (int a = 0; a < 3; ++a) {
-            const float c = u(rng);
-            for (int i = 0; i < 3; ++i) v[9 * t + 3 * i + a] = big ? u(rng) : c + small(rng);
-        }
-    }
-    return v;
-}
+using aacbvh_test::random_soup;
 
 /// The slots [lo, hi) of the leaves below node i, by recursion; false when
 /// they are not one range.
