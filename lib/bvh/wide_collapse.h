@@ -14,7 +14,13 @@ namespace aacbvh {
 /// into its two until there are `Width` children or only leaves, as
 /// `is_leaf(i)` says (binary leaves, or whatever else the layout keeps
 /// whole). A root that is a leaf is its own only child (a tree that is one
-/// leaf). Returns the count.
+/// leaf). Returns the count, the children in order of surface area, largest
+/// first (equals keep the order they were opened in).
+///
+/// The wide traversals read that order: an any-hit query visits the largest
+/// box first (the one most likely to hold an occluder), and a closest-hit
+/// query that enters two boxes at the same distance (a ray starting inside
+/// both) visits the smaller first, whose hits lie nearer on average.
 template <int Width, class IsLeaf>
 int open_largest_children(const Node *nodes, uint32_t root, const IsLeaf &is_leaf, uint32_t (&kids)[Width]) {
     if (is_leaf(root)) {
@@ -39,6 +45,19 @@ int open_largest_children(const Node *nodes, uint32_t root, const IsLeaf &is_lea
         const uint32_t first = nodes[kids[open]].first;
         kids[open] = first;
         kids[m++] = first + 1;
+    }
+    float area[Width];
+    for (int k = 0; k < m; ++k) area[k] = nodes[kids[k]].box.half_area();
+    for (int k = 1; k < m; ++k) { // insertion sort, stable
+        const uint32_t kid = kids[k];
+        const float a = area[k];
+        int i = k;
+        for (; i > 0 && area[i - 1] < a; --i) {
+            kids[i] = kids[i - 1];
+            area[i] = area[i - 1];
+        }
+        kids[i] = kid;
+        area[i] = a;
     }
     return m;
 }

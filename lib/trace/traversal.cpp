@@ -51,7 +51,10 @@ bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, fl
                 const bool hit_l = (hits & 1u) != 0, hit_r = (hits & 2u) != 0;
                 boxes_tested += 2;
                 if (hit_l && hit_r) {
-                    if (tr < tl) {
+                    // Nearer entry first; of equal entries (a ray starting
+                    // inside both boxes) the smaller box, whose hits lie
+                    // nearer on average, as in the wide layouts.
+                    if (tr < tl || (tr == tl && right.box.half_area() < left.box.half_area())) {
                         stack.push({node.first, tl});
                         current = {node.first + 1, tr};
                     } else {

@@ -8,7 +8,7 @@
 //     layout's conservative slab test, ray_box_conservative(), lane for
 //     lane), its clipped entry distance in t_entry[k];
 //   int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);
-//     the hit lanes' (distance, lane) keys, ascending (sort_hits_insertion()
+//     the hit lanes' (distance, 7 - lane) keys, ascending (sort_hits_insertion()
 //     below, or a sorting network);
 //   struct PacketRay;   PacketRay make_packet_ray(const TriangleRay &);
 //   unsigned filter_packets(const TrianglePacket *, uint32_t available,
@@ -34,7 +34,9 @@ struct Entry {
 using EntryStack = SpillStack<Entry, 256>;
 
 /// A key whose unsigned order is the order of t (sign-magnitude flipped to
-/// two's complement), its low three bits cleared for the lane. Only the
+/// two's complement), its low three bits cleared for 7 - lane: of equal
+/// distances the higher lane, the smaller box, comes first (lanes hold the
+/// children largest first, bvh/wide_collapse.h). Only the
 /// visiting order depends on it; pruning uses the exact t.
 inline uint32_t order_key8(float t) {
     uint32_t u;
@@ -53,7 +55,7 @@ inline void prefetch_child(const Wide8Node *nodes, const TrianglePacket *packets
     __builtin_prefetch(p + 128);
 }
 
-/// The hit lanes of `mask` as (distance, lane) keys (order_key8), sorted
+/// The hit lanes of `mask` as (distance, 7 - lane) keys (order_key8), sorted
 /// ascending into key[0, n); returns n. Insertion sort: few children are
 /// hit. The kernels whose ISA has a faster way define sort_hits() with it.
 inline int sort_hits_insertion(unsigned mask, const float t_entry[8], uint32_t key[8]) {
@@ -61,7 +63,7 @@ inline int sort_hits_insertion(unsigned mask, const float t_entry[8], uint32_t k
     do {
         const unsigned k = unsigned(__builtin_ctz(mask));
         mask &= mask - 1;
-        const uint32_t kk = order_key8(t_entry[k]) | k;
+        const uint32_t kk = order_key8(t_entry[k]) | (7u - k);
         int i = n++;
         while (i > 0 && key[i - 1] > kk) {
             key[i] = key[i - 1];
@@ -130,7 +132,7 @@ bool traverse(const Wide8Bvh &wide, const uint32_t *prim_ids, const Slots &slots
                     current = Entry{node.child[k0], node.count[k0], t_entry[k0]};
                     continue;
                 }
-                if (AnyHit) { // any hit ends the query: no ordering
+                if (AnyHit) { // any hit ends the query: no sorting; the largest box first
                     do {
                         const unsigned k = unsigned(__builtin_ctz(mask));
                         mask &= mask - 1;
@@ -141,7 +143,7 @@ bool traverse(const Wide8Bvh &wide, const uint32_t *prim_ids, const Slots &slots
                 }
                 const unsigned k1 = unsigned(__builtin_ctz(mask));
                 if ((mask & (mask - 1)) == 0) { // two: one comparison
-                    const bool swap = t_entry[k1] < t_entry[k0];
+                    const bool swap = t_entry[k1] <= t_entry[k0]; // equal: the smaller box (k1)
                     const unsigned near = swap ? k1 : k0, far = swap ? k0 : k1;
                     stack.push(Entry{node.child[far], node.count[far], t_entry[far]});
                     if (Packets || node.count[far] == 0) prefetch_child(nodes, packets, node.child[far], node.count[far]);
@@ -152,11 +154,11 @@ bool traverse(const Wide8Bvh &wide, const uint32_t *prim_ids, const Slots &slots
                 alignas(32) uint32_t key[8];
                 const int n = sort_hits(mask | (1u << k0), t_entry, key);
                 for (int i = n; i-- > 1;) {
-                    const unsigned k = key[i] & 7u;
+                    const unsigned k = ~key[i] & 7u;
                     stack.push(Entry{node.child[k], node.count[k], t_entry[k]});
                     if (Packets || node.count[k] == 0) prefetch_child(nodes, packets, node.child[k], node.count[k]);
                 }
-                const unsigned k = key[0] & 7u;
+                const unsigned k = ~key[0] & 7u;
                 current = Entry{node.child[k], node.count[k], t_entry[k]};
                 continue;
             }

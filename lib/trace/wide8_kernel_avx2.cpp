@@ -137,7 +137,7 @@ inline __m256i sort_layer(__m256i x, __m256i partner) {
 int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]) {
     const int n = __builtin_popcount(mask);
     if (n < 5) return sort_hits_insertion(mask, t_entry, key);
-    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256i lane = _mm256_setr_epi32(7, 6, 5, 4, 3, 2, 1, 0); // 7 - k: see order_key8()
     const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
     __m256i u = _mm256_castps_si256(_mm256_load_ps(t_entry));
     // order_key8(): flip all bits of negatives, the sign bit of the others.

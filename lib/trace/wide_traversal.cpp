@@ -104,8 +104,8 @@ struct Entry {
 using EntryStack = SpillStack<Entry, 128>;
 
 /// A key whose unsigned order is the order of the distance t (the usual
-/// sign-magnitude to two's-complement flip), low two bits cleared for a lane
-/// number. Only the visiting order depends on it: dropping two bits can
+/// sign-magnitude to two's-complement flip), low two bits cleared for
+/// 3 - lane. Only the visiting order depends on it: dropping two bits can
 /// reorder distances within 4 ulps, which the pruning (on the exact t)
 /// does not see.
 inline uint32_t order_key(float t) {
@@ -173,7 +173,7 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
                 const unsigned k1 = unsigned(__builtin_ctz(mask));
                 mask &= mask - 1;
                 if (mask == 0) { // two: one comparison, made without a branch
-                    const bool swap = t_entry[k1] < t_entry[k0];
+                    const bool swap = t_entry[k1] <= t_entry[k0]; // equal: the smaller box (k1)
                     const unsigned near = swap ? k1 : k0, far = swap ? k0 : k1;
                     stack.push(Entry{node.child[far], node.count[far], t_entry[far]});
                     prefetch_node(nodes, node.child[far], node.count[far]);
@@ -181,17 +181,19 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
                     continue;
                 }
                 // Three or four: a sorting network on integer keys (distance
-                // order in the high bits, lane in the low two), min/max only.
+                // order in the high bits, 3 - lane in the low two: of equal
+                // distances the higher lane, the smaller box, comes first;
+                // bvh/wide_collapse.h), min/max only.
                 uint32_t key[4];
-                key[0] = order_key(t_entry[k0]) | k0;
-                key[1] = order_key(t_entry[k1]) | k1;
+                key[0] = order_key(t_entry[k0]) | (3u - k0);
+                key[1] = order_key(t_entry[k1]) | (3u - k1);
                 const unsigned k2 = unsigned(__builtin_ctz(mask));
                 mask &= mask - 1;
-                key[2] = order_key(t_entry[k2]) | k2;
+                key[2] = order_key(t_entry[k2]) | (3u - k2);
                 int n = 3;
                 if (mask != 0) {
                     const unsigned k3 = unsigned(__builtin_ctz(mask));
-                    key[3] = order_key(t_entry[k3]) | k3;
+                    key[3] = order_key(t_entry[k3]) | (3u - k3);
                     n = 4;
                     sort_keys(key[0], key[1]);
                     sort_keys(key[2], key[3]);
@@ -204,11 +206,11 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
                     sort_keys(key[0], key[1]);
                 }
                 for (int i = n; i-- > 1;) {
-                    const unsigned k = key[i] & 3u;
+                    const unsigned k = ~key[i] & 3u;
                     stack.push(Entry{node.child[k], node.count[k], t_entry[k]});
                     prefetch_node(nodes, node.child[k], node.count[k]);
                 }
-                const unsigned k = key[0] & 3u;
+                const unsigned k = ~key[0] & 3u;
                 current = Entry{node.child[k], node.count[k], t_entry[k]};
                 continue;
             }
