@@ -105,9 +105,12 @@ static void test_rebuilds_match_fresh_builds(void **state) {
         assert_true(ts_make_scene(i % 2 ? TS_SCENE_GRID : TS_SCENE_RANDOM, sizes[i], 100 + i, &meshes[i]));
         if (i == 1) ts_jitter_coords(meshes[i].vertices, 3 * meshes[i].vertex_count, 0.01f, 7);
     }
+    /* Under ThreadSanitizer (10-15 times slower) the first four meshes, which
+     * already make kept blocks fit, fit loosely and not fit. */
+    const size_t mesh_count = TS_UNDER_TSAN ? 4 : 6;
     for (si = 0; si < sizeof setups / sizeof setups[0]; ++si) {
         aacbvh_bvh *kept = make_bvh(&setups[si], 1);
-        for (i = 0; i < 6; ++i) {
+        for (i = 0; i < mesh_count; ++i) {
             set_mesh(kept, &meshes[i]);
             TS_EXPECT_STATUS(aacbvh_bvh_build(kept), AACBVH_OK);
             expect_fresh_tree(&setups[si], kept, &meshes[i]);
