@@ -1,9 +1,12 @@
-// Random triangle soups for the C++ unit tests of lib/ internals.
+// Random triangle soups for the C++ unit tests of lib/ internals, and
+// handles built over them.
 #pragma once
 
 #include <cstddef>
 #include <random>
 #include <vector>
+
+#include "bvh_object.h"
 
 namespace aacbvh_test {
 
@@ -21,6 +24,20 @@ inline std::vector<float> random_soup(size_t triangles, unsigned seed) {
         }
     }
     return v;
+}
+
+/// Hands a soup (9 floats a triangle, no indices) to a handle.
+inline void set_soup(aacbvh::BvhObject &object, const std::vector<float> &soup) {
+    object.set_triangles(soup.data(), soup.size() / 3, 3 * sizeof(float), nullptr, soup.size() / 9);
+}
+
+/// Builds a handle over a soup with the given builder and leaf size.
+inline void build_soup(aacbvh::BvhObject &object, const std::vector<float> &soup, aacbvh_builder builder,
+                       int max_leaf) {
+    set_soup(object, soup);
+    object.set_param_int(AACBVH_PARAM_BUILDER, builder);
+    object.set_param_int(AACBVH_PARAM_MAX_LEAF_SIZE, max_leaf);
+    object.build();
 }
 
 } // namespace aacbvh_test

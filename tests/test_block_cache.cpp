@@ -24,9 +24,11 @@ extern "C" {
 #include "core/error.h"
 #include "core/memory.h"
 #include "core/scheduler.h"
+#include "random_soup.h"  // set_soup
 #include "test_support.h" // TS_UNDER_TSAN
 
 using aacbvh::BlockCache;
+using aacbvh_test::set_soup;
 
 namespace {
 
@@ -39,10 +41,6 @@ std::vector<float> random_soup(size_t triangles, unsigned seed) {
     std::vector<float> vertices(9 * triangles);
     for (float &v : vertices) v = u(rng);
     return vertices;
-}
-
-void set_soup(aacbvh::BvhObject &object, const std::vector<float> &vertices) {
-    object.set_triangles(vertices.data(), vertices.size() / 3, 3 * sizeof(float), nullptr, vertices.size() / 9);
 }
 
 void *block(size_t bytes) {

@@ -162,8 +162,7 @@ void test_default_handle_keeps_the_shape(void **) {
     aacbvh::Scheduler scheduler(2);
     std::vector<float> soup = random_soup(20000, 9);
     aacbvh::BvhObject compact(scheduler), kept(scheduler);
-    for (aacbvh::BvhObject *o : {&compact, &kept})
-        o->set_triangles(soup.data(), soup.size() / 3, 3 * sizeof(float), nullptr, soup.size() / 9);
+    for (aacbvh::BvhObject *o : {&compact, &kept}) aacbvh_test::set_soup(*o, soup);
     kept.set_param_int(AACBVH_PARAM_TRAVERSAL_LAYOUT, AACBVH_LAYOUT_BINARY);
     compact.build();
     kept.build();

@@ -75,10 +75,7 @@ void test_split_sweep_matches_one_loop(void **) {
     for (aacbvh_builder builder : builders)
         for (int leaf : {1, 4, 8}) {
             aacbvh::BvhObject object(scheduler);
-            object.set_triangles(soup.data(), soup.size() / 3, 3 * sizeof(float), nullptr, soup.size() / 9);
-            object.set_param_int(AACBVH_PARAM_BUILDER, builder);
-            object.set_param_int(AACBVH_PARAM_MAX_LEAF_SIZE, leaf);
-            object.build();
+            aacbvh_test::build_soup(object, soup, builder, leaf);
             char what[64];
             snprintf(what, sizeof what, "builder %d, leaf %d", int(builder), leaf);
             packet_subtrees += check_tree(object.binary_tree(), what);

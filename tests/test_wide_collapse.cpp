@@ -108,10 +108,7 @@ void test_children_by_area(void **) {
     for (aacbvh_builder builder : builders)
         for (int leaf : {1, 4}) {
             aacbvh::BvhObject object(scheduler);
-            object.set_triangles(soup.data(), soup.size() / 3, 3 * sizeof(float), nullptr, soup.size() / 9);
-            object.set_param_int(AACBVH_PARAM_BUILDER, builder);
-            object.set_param_int(AACBVH_PARAM_MAX_LEAF_SIZE, leaf);
-            object.build();
+            aacbvh_test::build_soup(object, soup, builder, leaf);
             char what[64];
             snprintf(what, sizeof what, "builder %d, leaf %d", int(builder), leaf);
             check_tree(object.binary_tree(), scheduler, what);
@@ -125,9 +122,7 @@ void test_equal_areas(void **) {
     soup.resize(9 * 300);
     for (size_t i = 9; i < soup.size(); ++i) soup[i] = soup[i % 9];
     aacbvh::BvhObject object(scheduler);
-    object.set_triangles(soup.data(), soup.size() / 3, 3 * sizeof(float), nullptr, soup.size() / 9);
-    object.set_param_int(AACBVH_PARAM_MAX_LEAF_SIZE, 1);
-    object.build();
+    aacbvh_test::build_soup(object, soup, AACBVH_BUILDER_AAC_HQ, 1);
     check_tree(object.binary_tree(), scheduler, "identical triangles");
 }
 
