@@ -9,7 +9,7 @@ AACBVH_BUILD_DIR=${AACBVH_BUILD_DIR:-$AACBVH_ROOT/build}
 AACBVH_JOBS=${AACBVH_JOBS:-$(nproc 2>/dev/null || echo 2)}
 AACBVH_PACKAGES="cmake g++ make pkg-config libcmocka-dev libtinyobjloader-dev"
 
-log() { printf '\n=== %s\n' "$*"; }
+log() { printf '\n=== [%s] %s\n' "$(date +%T)" "$*"; }
 
 # Fails early, with the command that fixes it, when a tool is missing.
 require_tools() {

@@ -165,6 +165,22 @@ aacbvh_ray *ts_make_rays(const float *coords, size_t coord_count, size_t count, 
 #endif
 #define TS_RAYS(n) (TS_UNDER_TSAN && (n) > 1100 ? 1100 : (n))
 
+/* AddressSanitizer (with UBSan in the suite's second stage): tests run 2-4
+ * times slower. The few tests that repeat one check thousands of times (rays
+ * that meet every triangle of a degenerate scene, every thread count) run a
+ * lighter load under either sanitizer; the Release stage runs them in full. */
+#if defined(__SANITIZE_ADDRESS__)
+#define TS_UNDER_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define TS_UNDER_ASAN 1
+#endif
+#endif
+#ifndef TS_UNDER_ASAN
+#define TS_UNDER_ASAN 0
+#endif
+#define TS_UNDER_SANITIZER (TS_UNDER_TSAN || TS_UNDER_ASAN)
+
 /** The answers of one BVH to a batch of rays. */
 typedef struct ts_answers {
     aacbvh_hit *hits;

@@ -206,9 +206,9 @@ static void test_bunny(void **state) {
 
 static void test_degenerate_scenes(void **state) {
     (void)state;
-    /* Rays meet every triangle of the first five scenes: under
-     * ThreadSanitizer, 300 rays (still more than a task's grain of 256). */
-    g_rays = TS_UNDER_TSAN ? 300 : kRays;
+    /* Rays meet every triangle of the first five scenes: under a
+     * sanitizer, 300 rays (still more than a task's grain of 256). */
+    g_rays = TS_UNDER_SANITIZER ? 300 : kRays;
     g_wide_variants = kMainWide;
     check_generated(TS_SCENE_IDENTICAL, 500, 21);
     check_generated(TS_SCENE_SAME_CENTROID, 500, 23);
@@ -227,7 +227,7 @@ static void test_degenerate_scenes(void **state) {
 static void test_deep_tree(void **state) {
     (void)state;
     g_wide_variants = kMainWide;
-    g_rays = TS_UNDER_TSAN ? 300 : kRays; /* still more than a task's grain of 256 */
+    g_rays = TS_UNDER_SANITIZER ? 300 : kRays; /* still more than a task's grain of 256 */
     check_generated(TS_SCENE_IDENTICAL, 3000, 27);
     g_rays = kRays;
     g_wide_variants = kAllWide;
