@@ -42,7 +42,7 @@ struct Rng {
 };
 
 struct Counts {
-    uint64_t rays = 0, hits = 0, axis_aligned_hits = 0, on_surface = 0;
+    uint64_t rays = 0, hits = 0, axis_aligned_hits = 0, on_surface = 0, from_zero = 0;
 };
 
 Box box_of(const float *p0, const float *p1, const float *p2) {
@@ -81,6 +81,16 @@ void check(const float org[3], const float dir[3], const float *p[3], float tmin
     // (ulps; more for slivers): pruning against it only drops ties within
     // the tolerance documented at aacbvh_bvh_intersect().
     bool ok = window && t_entry <= t + slack && point && pair == 3u && ta <= t + slack && tb <= t + slack;
+    // The wide kernels' test for windows from 0 on (exits through inv_far):
+    // the same guarantees, and never a later entry.
+    bool from_zero = true;
+    if (tmin >= 0.0f) {
+        float z_entry = NAN, z_point = NAN;
+        from_zero = ray_box_from_zero(br, box, tmin, tmax, z_entry) && z_entry == t_entry &&
+                    ray_box_from_zero(br, box, tmin, t + slack, z_point) && z_point == t_point;
+        ++counts.from_zero;
+    }
+    ok = ok && from_zero;
     if (!ok) {
         // A ray starting on the surface: the triangle's t carries an absolute
         // error of about eps * L / |dir| (L: distance to the vertices), which
@@ -92,9 +102,9 @@ void check(const float org[3], const float dir[3], const float *p[3], float tmin
         }
     }
     if (!ok)
-        fail_msg("box culls a triangle hit at t = %.9g (window %d entry %.9g, [t, t] %d, pair %u)\n"
+        fail_msg("box culls a triangle hit at t = %.9g (window %d entry %.9g, [t, t] %d, pair %u, from zero %d)\n"
                  "  org %a %a %a dir %a %a %a tmin %a tmax %a\n  p0 %a %a %a\n  p1 %a %a %a\n  p2 %a %a %a",
-                 double(t), int(window), double(t_entry), int(point), pair, double(org[0]), double(org[1]),
+                 double(t), int(window), double(t_entry), int(point), pair, int(from_zero), double(org[0]), double(org[1]),
                  double(org[2]), double(dir[0]), double(dir[1]), double(dir[2]), double(tmin), double(tmax),
                  double(p[0][0]), double(p[0][1]), double(p[0][2]), double(p[1][0]), double(p[1][1]),
                  double(p[1][2]), double(p[2][0]), double(p[2][1]), double(p[2][2]));
@@ -223,12 +233,56 @@ void test_flat_boxes(void **) {
                 (unsigned long long)counts.rays);
 }
 
+/// The bound behind ray_box_from_zero(): an exit distance computed through
+/// inv_far is at least the exact one times 1 + gamma(3), for every exit at
+/// or after the origin whose factors stay normal floats (the same premise as
+/// the additive widening). The exact distance (plane - org) / dir in double:
+/// the difference of two floats is exact there, the quotient rounds once
+/// (relative 2^-53, allowed for). Planes, origins and directions from 1e-6
+/// to 1e6 and beyond, differences down to one ulp.
+void test_exit_scale_bound(void **) {
+    const double eps = 0x1p-24, gamma3 = 3.0 * eps / (1.0 - 3.0 * eps);
+    assert_true(double(kFarScale) - 1.0 >= 7.0 * eps);
+    assert_true(double(kFarScale) - 1.0 <= 16.0 * eps);
+    Rng rng{2026};
+    const float scales[] = {1e-6f, 1e-3f, 1.0f, 1e3f, 1e6f, 1e12f};
+    uint64_t checked = 0;
+    for (int i = 0; i < 400000; ++i) {
+        const float scale = scales[rng.below(6)];
+        const float org = rng.range(-1.0f, 1.0f) * scale;
+        float plane = org + rng.range(0.0f, 2.0f) * scales[rng.below(6)];
+        if (i % 4 == 0) plane = std::nextafter(org, INFINITY); // one ulp ahead
+        const float dir_scale = scales[rng.below(6)];
+        float dir = rng.range(0.0f, 1.0f) * dir_scale;
+        if (rng.below(2) == 1) {
+            dir = -dir;
+            plane = org - (plane - org); // behind along the axis, ahead along the ray
+        }
+        if (dir == 0.0f) continue;
+        const float orgs[3] = {org, 0.0f, 0.0f}, dirs[3] = {dir, 1.0f, 1.0f};
+        const BoxRay r = make_box_ray(orgs, dirs);
+        const float diff = plane - org;
+        const float exit = diff * r.inv_far[0];
+        if (!std::isnormal(diff) || !std::isnormal(exit) || !std::isnormal(r.inv[0])) continue;
+        const double exact = (double(plane) - double(org)) / double(dir);
+        if (exact < 0.0) continue;
+        ++checked;
+        const double need = exact * (1.0 + gamma3) * (1.0 - 0x1p-52);
+        if (double(exit) < need)
+            fail_msg("exit %a < exact %a (1 + gamma(3)): plane %a org %a dir %a", double(exit), exact,
+                     double(plane), double(org), double(dir));
+    }
+    std::printf("exit scale: %llu exits at or after the origin checked\n", (unsigned long long)checked);
+    assert_true(checked > 100000);
+}
+
 } // namespace
 
 int main() {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_box_is_conservative),
         cmocka_unit_test(test_flat_boxes),
+        cmocka_unit_test(test_exit_scale_bound),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }

@@ -63,7 +63,7 @@ template <bool AnyHit> struct HitRecord {
     /// primitive inside can lie nearer, so tmax is widened exactly as the node
     /// test widens its exit distance. A node is skipped only if the node test
     /// would now reject it too.
-    float reach() const { return tmax + std::fabs(tmax) * kTwoGamma3; }
+    float reach() const { return exit_reach(tmax); }
 
     /// Pops `stack` until an entry (with entry distance .t) within reach();
     /// false when none is left.

@@ -1,12 +1,13 @@
 // The 8-wide traversal, included once by each kernel's file
 // (wide8_kernel_<isa>.cpp) inside that kernel's own namespace and target
 // region, after the file has defined its node and packet tests:
-//   struct NodeRay;     NodeRay make_node_ray(const BoxRay &);
+//   struct NodeRay;     NodeRay make_node_ray(const BoxRay &, float tmin);
 //   unsigned test_children(const Wide8Node &, const NodeRay &, float tmin,
 //                          float tmax, float t_entry[8]);
-//     bit k set when child k may be hit within [tmin, tmax] (the binary
-//     layout's conservative slab test, ray_box_conservative(), lane for
-//     lane), its clipped entry distance in t_entry[k];
+//     bit k set when child k may be hit within [tmin, tmax] (a conservative
+//     slab test: the binary layout's ray_box_conservative() lane for lane,
+//     or, where the window starts at 0 or later, exits widened through
+//     kFarScale; trace/ray_box.h), its clipped entry distance in t_entry[k];
 //   int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);
 //     the hit lanes' (distance, 7 - lane) keys, ascending (sort_hits_insertion()
 //     below, or a sorting network);
@@ -181,7 +182,7 @@ bool query(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const
     const ScaledRay scaled(ray);
     const aacbvh_ray &r = scaled.ray;
     const BoxRay box_ray = make_box_ray(r.org, r.dir);
-    const NodeRay nray = make_node_ray(box_ray);
+    const NodeRay nray = make_node_ray(box_ray, r.tmin);
     const uint32_t *prim_ids = bvh.prim_ids.data();
     bool found;
     if (geometry.kind == GeometryKind::Boxes) {

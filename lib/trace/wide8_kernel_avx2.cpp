@@ -31,16 +31,20 @@ namespace {
 struct NodeRay {
     long near[3], far[3]; ///< rows of Wide8Node::box (long: no extension per node)
     __m256 org[3], inv[3];
+    __m256 inv_far[3];     ///< inv * kFarScale, for exits when the window starts at 0 or later
+    bool window_from_zero; ///< tmin >= 0: exits as ray_box_from_zero() finds them
 };
 
-inline NodeRay make_node_ray(const BoxRay &r) {
+inline NodeRay make_node_ray(const BoxRay &r, float tmin) {
     NodeRay w;
     for (int a = 0; a < 3; ++a) {
         w.near[a] = 2 * a + (r.neg[a] ? 1 : 0);
         w.far[a] = 2 * a + (r.neg[a] ? 0 : 1);
         w.org[a] = _mm256_set1_ps(r.org[a]);
         w.inv[a] = _mm256_set1_ps(r.inv[a]);
+        w.inv_far[a] = _mm256_set1_ps(r.inv_far[a]);
     }
+    w.window_from_zero = tmin >= 0.0f;
     return w;
 }
 
@@ -48,20 +52,30 @@ inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmi
     const __m256 nx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.near[0]]), r.org[0]), r.inv[0]);
     const __m256 ny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.near[1]]), r.org[1]), r.inv[1]);
     const __m256 nz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.near[2]]), r.org[2]), r.inv[2]);
-    const __m256 fx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[0]]), r.org[0]), r.inv[0]);
-    const __m256 fy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[1]]), r.org[1]), r.inv[1]);
-    const __m256 fz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[2]]), r.org[2]), r.inv[2]);
-    // max / min return their second operand when the first is NaN, as the
-    // scalar "x > a ? x : a" keeps a.
     __m256 a = _mm256_max_ps(nx, _mm256_set1_ps(tmin));
     a = _mm256_max_ps(ny, a);
     a = _mm256_max_ps(nz, a);
-    __m256 b = _mm256_min_ps(fx, _mm256_set1_ps(tmax));
-    b = _mm256_min_ps(fy, b);
-    b = _mm256_min_ps(fz, b);
-    const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
-    b = _mm256_add_ps(b, _mm256_mul_ps(_mm256_and_ps(b, abs_mask), _mm256_set1_ps(kTwoGamma3)));
     _mm256_store_ps(t_entry, a);
+    // max / min return their second operand when the first is NaN, as the
+    // scalar "x > a ? x : a" keeps a.
+    __m256 b;
+    if (r.window_from_zero) { // ray_box_from_zero(), lane for lane
+        const __m256 fx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[0]]), r.org[0]), r.inv_far[0]);
+        const __m256 fy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[1]]), r.org[1]), r.inv_far[1]);
+        const __m256 fz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[2]]), r.org[2]), r.inv_far[2]);
+        b = _mm256_min_ps(fx, _mm256_set1_ps(exit_reach(tmax)));
+        b = _mm256_min_ps(fy, b);
+        b = _mm256_min_ps(fz, b);
+    } else { // ray_box_conservative()'s widening, lane for lane
+        const __m256 fx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[0]]), r.org[0]), r.inv[0]);
+        const __m256 fy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[1]]), r.org[1]), r.inv[1]);
+        const __m256 fz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[2]]), r.org[2]), r.inv[2]);
+        b = _mm256_min_ps(fx, _mm256_set1_ps(tmax));
+        b = _mm256_min_ps(fy, b);
+        b = _mm256_min_ps(fz, b);
+        const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+        b = _mm256_add_ps(b, _mm256_mul_ps(_mm256_and_ps(b, abs_mask), _mm256_set1_ps(kTwoGamma3)));
+    }
     return unsigned(_mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OS)));
 }
 
