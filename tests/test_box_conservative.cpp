@@ -7,6 +7,8 @@
 // documented at aacbvh_bvh_intersect() allows ties that close. Random and adversarial cases: axis-aligned
 // triangles (flat boxes), rays aimed exactly at vertices and edges, direction
 // components of +-0 and denormals, axis-parallel rays, far from the origin.
+// The same for ray_box_from_zero() (the wide kernels' test for windows from
+// 0 on), and the bound its exit scale rests on (test_exit_scale_bound).
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
