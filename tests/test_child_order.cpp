@@ -1,4 +1,5 @@
-// The closest-hit child order on hand-made trees (lib/trace/traversal.cpp):
+// The closest-hit child order on hand-made trees, in every layout (the binary
+// traversal in lib/trace/traversal.cpp, WIDE4 and WIDE8 with each kernel):
 // the child entered nearer is visited first; when both are entered at the
 // same distance (the ray starts inside both boxes) the smaller box comes
 // first, whichever side it is on. The order shows in the work a query does:
@@ -12,6 +13,9 @@
 // first tests the far one too (2). From z = -20 the large box is entered
 // first (t = 15 against 19.5), and its far triangle is tested before the
 // small box is reached (2 tests), although the small box is smaller.
+// test_every_layout_visits_alike makes the same case survive the wide
+// layouts' collapse (see make_wide_case()) and asks every layout for the
+// same count of triangle tests.
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -22,11 +26,17 @@ extern "C" {
 }
 
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "bvh/bvh.h"
+#include "bvh/wide8_bvh.h"
+#include "bvh/wide_bvh.h"
 #include "core/geometry.h"
+#include "core/scheduler.h"
 #include "trace/traversal.h"
+#include "trace/wide8_traversal.h"
+#include "trace/wide_traversal.h"
 
 namespace {
 
@@ -115,12 +125,149 @@ void test_nearer_entry_first(void **) {
     }
 }
 
+// The wide layouts collapse the root's inner children into one node, so the
+// tree above would leave no tie there. The tree below keeps one: the root's
+// children are S (as above) and T = (X, U). X is an inner node around the
+// origin (its box as L's: a leaf with triangle 1 at z = 10 and a leaf with
+// triangle 2 off the path); U is a subtree of eight leaves far off the path
+// (x from 30 on) whose seven boxes are each larger than X's. The collapse
+// opens the largest inner child first: T, then U's seven inner nodes fill
+// the root's slots (8 in WIDE8: S, X and six of U's; 4 in WIDE4: S, X and
+// U's two halves) before X is opened. In every layout the root then holds S
+// and the larger X, both around the origin, and the same rule must decide.
+// Leaf slots: 0 -> triangle 0 (S), 1 -> triangle 1, 2 -> triangle 2, 3..10
+// -> triangles 3..10 (U's leaves).
+struct WideCase {
+    std::vector<float> vertices;
+    aacbvh::Bvh bvh;
+};
+
+WideCase make_wide_case(bool small_left) {
+    WideCase c;
+    c.vertices.assign(kVertices, kVertices + 27);
+    // U's eight triangles: small, at x = 40 + 20 j, far off the ray's path.
+    for (uint32_t j = 0; j < 8; ++j) {
+        const float x = 40.0f + 20.0f * float(j);
+        const float tri[9] = {x, 0.0f, 0.0f, x + 1.0f, 0.0f, 0.0f, x, 1.0f, 0.0f};
+        c.vertices.insert(c.vertices.end(), tri, tri + 9);
+    }
+    aacbvh::Bvh &bvh = c.bvh;
+    bvh.prim_ids.resize(11);
+    for (uint32_t i = 0; i < 11; ++i) bvh.prim_ids[i] = i;
+    // Nodes, children of an inner node at `first`, `first + 1`:
+    //  0 root: 1, 2 = S and T (or T and S)
+    //  T: 3 = X, 4 = U
+    //  X: 5 (triangle 1), 6 (triangle 2)
+    //  U: 7, 8; 7: 9, 10; 8: 11, 12; 9..12: 13..20, leaves (triangles 3..10)
+    bvh.nodes.resize(21);
+    const aacbvh::Node small = node(-1, -1, -0.5f, 1, 1, 1, 0, 1);
+    const uint32_t t_index = small_left ? 2 : 1;
+    const aacbvh::Node t_node = node(-10, -100, -100, 200, 100, 100, 3, 0);
+    bvh.nodes[0] = node(-10, -100, -100, 200, 100, 100, 1, 0);
+    bvh.nodes[small_left ? 1 : 2] = small;
+    bvh.nodes[t_index] = t_node;
+    bvh.nodes[3] = node(-10, -10, -5, 10, 10, 20, 5, 0);                 // X
+    bvh.nodes[4] = node(30, -100, -100, 200, 100, 100, 7, 0);            // U
+    bvh.nodes[5] = node(-9, -9, 9.9f, 9, 9, 10.1f, 1, 1);               // triangle 1
+    bvh.nodes[6] = node(5, -0.5f, -4.6f, 6, 0.5f, -4.4f, 2, 1);          // triangle 2
+    // U's inner nodes: large boxes (area far above X's 2,800), x >= 30.
+    bvh.nodes[7] = node(30, -100, -100, 110, 100, 100, 9, 0);
+    bvh.nodes[8] = node(110, -100, -100, 200, 100, 100, 11, 0);
+    bvh.nodes[9] = node(30, -100, -100, 70, 100, 100, 13, 0);
+    bvh.nodes[10] = node(70, -100, -100, 110, 100, 100, 15, 0);
+    bvh.nodes[11] = node(110, -100, -100, 150, 100, 100, 17, 0);
+    bvh.nodes[12] = node(150, -100, -100, 200, 100, 100, 19, 0);
+    for (uint32_t j = 0; j < 8; ++j) {
+        const float x = 40.0f + 20.0f * float(j);
+        bvh.nodes[13 + j] = node(x, 0, 0, x + 1, 1, 0, 3 + j, 1);
+    }
+    return c;
+}
+
+aacbvh::Geometry wide_geometry(const WideCase &c) {
+    aacbvh::Geometry g = make_geometry();
+    g.vertices = c.vertices.data();
+    g.vertex_count = c.vertices.size() / 3;
+    g.primitive_count = g.vertex_count / 3;
+    return g;
+}
+
+/// Whether some inner child of a wide root holds `p` in its box (the wide
+/// root kept an inner node around the origin: the case has a tie there).
+template <class WideNodeT, int kWidth> bool root_keeps_inner_around(const WideNodeT &root, const float p[3]) {
+    for (int k = 0; k < kWidth; ++k) {
+        if (root.child[k] == WideNodeT::kEmptyChild || root.count[k] != 0) continue;
+        bool inside = true;
+        for (int a = 0; a < 3; ++a) inside = inside && root.box[2 * a][k] <= p[a] && p[a] <= root.box[2 * a + 1][k];
+        if (inside) return true;
+    }
+    return false;
+}
+
+void expect_tests(const char *layout, bool small_left, float z0, uint64_t tests, const aacbvh_hit &hit,
+                  uint64_t want) {
+    if (hit.prim_id != 0 || !(hit.t == 1.0f - z0))
+        fail_msg("%s, small box on the %s, from z = %g: hit %u at %g, want 0 at %g", layout,
+                 small_left ? "left" : "right", double(z0), hit.prim_id, double(hit.t), double(1.0f - z0));
+    if (tests != want)
+        fail_msg("%s, small box on the %s, from z = %g: %llu triangle tests, want %llu", layout,
+                 small_left ? "left" : "right", double(z0), (unsigned long long)tests, (unsigned long long)want);
+}
+
+/// The same rule in every layout: from the origin (inside S and X, a tie)
+/// the smaller S first and 1 triangle test; from z = -20 the nearer X
+/// first and 2. The binary traversal, WIDE4 and WIDE8 with every kernel
+/// this CPU runs, on either side.
+void test_every_layout_visits_alike(void **) {
+    aacbvh::Scheduler scheduler(1);
+    const aacbvh::TraceKernel original = aacbvh::trace_kernel();
+    const float origin[3] = {0.0f, 0.0f, 0.0f};
+    int wide8_kernels = 0;
+    for (bool small_left : {true, false}) {
+        const WideCase c = make_wide_case(small_left);
+        const aacbvh::Geometry g = wide_geometry(c);
+        aacbvh::WideBvh wide4;
+        wide4.build(c.bvh, scheduler);
+        aacbvh::Wide8Bvh wide8;
+        wide8.build(c.bvh, nullptr, scheduler);
+        assert_false(wide8.has_packets());
+        const bool four_keeps = root_keeps_inner_around<aacbvh::WideNode, 4>(wide4.nodes()[0], origin);
+        const bool eight_keeps = root_keeps_inner_around<aacbvh::Wide8Node, 8>(wide8.nodes()[0], origin);
+        assert_true(four_keeps);
+        assert_true(eight_keeps);
+        for (float z0 : {0.0f, -20.0f}) {
+            const uint64_t want = z0 == 0.0f ? 1 : 2;
+            const aacbvh_ray ray = {{0.0f, 0.0f, z0}, 0.0f, {0.0f, 0.0f, 1.0f}, INFINITY};
+            aacbvh_hit hit;
+            aacbvh::TraversalCounters binary;
+            aacbvh::intersect_ray(c.bvh, g, ray, hit, &binary);
+            expect_tests("binary", small_left, z0, binary.primitive_tests, hit, want);
+            aacbvh::TraversalCounters four;
+            aacbvh::intersect_ray_wide(wide4, c.bvh, g, ray, hit, nullptr, &four);
+            expect_tests("WIDE4", small_left, z0, four.primitive_tests, hit, want);
+            for (aacbvh::TraceKernel k :
+                 {aacbvh::TraceKernel::Scalar, aacbvh::TraceKernel::Sse2, aacbvh::TraceKernel::Avx2}) {
+                if (!aacbvh::set_trace_kernel(k)) continue;
+                ++wide8_kernels;
+                aacbvh::TraversalCounters eight;
+                aacbvh::intersect_ray_wide8_counted(wide8, c.bvh, g, ray, hit, eight);
+                char label[64];
+                std::snprintf(label, sizeof label, "WIDE8 (%s kernel)", aacbvh::trace_kernel_name(k));
+                expect_tests(label, small_left, z0, eight.primitive_tests, hit, want);
+            }
+            assert_true(aacbvh::set_trace_kernel(original));
+        }
+    }
+    assert_true(wide8_kernels >= 4); // the plain kernel, at least, both sides and origins
+}
+
 } // namespace
 
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_tie_goes_to_the_smaller_box),
         cmocka_unit_test(test_nearer_entry_first),
+        cmocka_unit_test(test_every_layout_visits_alike),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }

@@ -84,6 +84,11 @@ void intersect_ray_wide8(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &g
     kernel_table(trace_kernel()).intersect(wide, bvh, geometry, ray, hit);
 }
 
+void intersect_ray_wide8_counted(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry,
+                                 const aacbvh_ray &ray, aacbvh_hit &hit, TraversalCounters &counters) {
+    kernel_table(trace_kernel()).intersect_counted(wide, bvh, geometry, ray, hit, counters);
+}
+
 bool occluded_ray_wide8(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray) {
     return kernel_table(trace_kernel()).occluded(wide, bvh, geometry, ray);
 }

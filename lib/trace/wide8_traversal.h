@@ -9,6 +9,7 @@
 #include "bvh/bvh.h"
 #include "bvh/wide8_bvh.h"
 #include "core/geometry.h"
+#include "trace/traversal.h"
 
 namespace aacbvh {
 
@@ -32,10 +33,18 @@ void intersect_ray_wide8(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &g
 /// Any hit of one ray (same answer as occluded_ray()).
 bool occluded_ray_wide8(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray);
 
+/// intersect_ray_wide8() over a tree with slot leaves (triangles referenced,
+/// or boxes), adding its primitive tests to counters.primitive_tests (for the
+/// tests of the visiting order; nodes are not counted). The same answer.
+void intersect_ray_wide8_counted(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry,
+                                 const aacbvh_ray &ray, aacbvh_hit &hit, TraversalCounters &counters);
+
 /// One kernel's entry points (each kernel's file defines one).
 struct Wide8Kernel {
     void (*intersect)(const Wide8Bvh &, const Bvh &, const Geometry &, const aacbvh_ray &, aacbvh_hit &);
     bool (*occluded)(const Wide8Bvh &, const Bvh &, const Geometry &, const aacbvh_ray &);
+    void (*intersect_counted)(const Wide8Bvh &, const Bvh &, const Geometry &, const aacbvh_ray &, aacbvh_hit &,
+                              TraversalCounters &);
 };
 
 /// The kernel in use, for a batch of queries (looked up once).

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <type_traits>
 
 #include "trace/hit_record.h"
 #include "trace/ray_primitives.h"
@@ -225,9 +226,19 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
     return best.found;
 }
 
+/// A leaf-test adapter that counts its tests (intersect_ray_wide()'s counters).
+template <class Primitives> struct CountedPrimitives {
+    const Primitives &prims;
+    uint64_t *tests;
+    bool intersect(uint32_t slot, float tmin, float tmax, float &t, float &u, float &v) const {
+        ++*tests;
+        return prims.intersect(slot, tmin, tmax, t, u, v);
+    }
+};
+
 template <bool AnyHit>
 bool query(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const float *triangles,
-           const aacbvh_ray &ray, aacbvh_hit &hit) {
+           const aacbvh_ray &ray, aacbvh_hit &hit, TraversalCounters *counters) {
     if (wide.node_count() == 0 || geometry.kind == GeometryKind::None || !ray_is_valid(ray)) {
         set_miss(hit);
         return false;
@@ -237,6 +248,11 @@ bool query(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const 
     const WideRay wide_ray = make_wide_ray(box_ray);
     const bool found =
         with_primitives(geometry, bvh.prim_ids.data(), triangles, scaled.ray, box_ray, [&](const auto &prims) {
+            if (counters) {
+                using Prims = std::decay_t<decltype(prims)>;
+                return traverse<AnyHit>(wide, bvh, CountedPrimitives<Prims>{prims, &counters->primitive_tests},
+                                        wide_ray, scaled.ray.tmin, scaled.ray.tmax, hit);
+            }
             return traverse<AnyHit>(wide, bvh, prims, wide_ray, scaled.ray.tmin, scaled.ray.tmax, hit);
         });
     if (!AnyHit) scaled.unscale(hit);
@@ -246,14 +262,14 @@ bool query(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const 
 } // namespace
 
 void intersect_ray_wide(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
-                        aacbvh_hit &hit, const float *triangles) {
-    query<false>(wide, bvh, geometry, triangles, ray, hit);
+                        aacbvh_hit &hit, const float *triangles, TraversalCounters *counters) {
+    query<false>(wide, bvh, geometry, triangles, ray, hit, counters);
 }
 
 bool occluded_ray_wide(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
                        const float *triangles) {
     aacbvh_hit unused;
-    return query<true>(wide, bvh, geometry, triangles, ray, unused);
+    return query<true>(wide, bvh, geometry, triangles, ray, unused, nullptr);
 }
 
 } // namespace aacbvh
