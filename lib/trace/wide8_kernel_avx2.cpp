@@ -176,7 +176,8 @@ int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]) {
 } // namespace
 } // namespace wide8_avx2
 
-extern const Wide8Kernel kWide8Avx2 = {wide8_avx2::intersect_entry, wide8_avx2::occluded_entry, wide8_avx2::intersect_counted_entry};
+extern const Wide8Kernel kWide8Avx2 = {wide8_avx2::intersect_entry, wide8_avx2::occluded_entry,
+                                       wide8_avx2::intersect_counted_entry};
 
 } // namespace aacbvh
 
