@@ -115,6 +115,17 @@ struct BoxPrimitives {
     }
 };
 
+/// Any leaf-test adapter above, counting its tests into *tests (for the tests
+/// of the visiting order; a traversal instantiated with it answers alike).
+template <class Primitives> struct CountedPrimitives {
+    const Primitives &prims;
+    uint64_t *tests;
+    bool intersect(uint32_t slot, float tmin, float tmax, float &t, float &u, float &v) const {
+        ++*tests;
+        return prims.intersect(slot, tmin, tmax, t, u, v);
+    }
+};
+
 /// Calls visit(prims) with the leaf-test adapter that fits the geometry:
 /// boxes, the BVH's own triangle copy (when `triangles` is non-null), or the
 /// caller's triangles. Both traversals dispatch here.

@@ -207,17 +207,6 @@ void intersect_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geome
     query<false>(wide, bvh, geometry, ray, hit);
 }
 
-/// Slot-leaf tests that count themselves (CountedSlots::tests), for the
-/// tests of the visiting order.
-template <class Slots> struct CountedSlots {
-    const Slots &slots;
-    uint64_t *tests;
-    bool intersect(uint32_t slot, float tmin, float tmax, float &t, float &u, float &v) const {
-        ++*tests;
-        return slots.intersect(slot, tmin, tmax, t, u, v);
-    }
-};
-
 /// intersect_entry() over slot leaves (triangles referenced, or boxes),
 /// counting the primitive tests into counters.primitive_tests; the same
 /// steps and answer. A tree with packet leaves is answered without counting.
@@ -233,14 +222,15 @@ void intersect_counted_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometr
     const NodeRay nray = make_node_ray(box_ray, r.tmin);
     const uint32_t *prim_ids = bvh.prim_ids.data();
     const TriangleRay tray = make_triangle_ray(r.org, r.dir);
+    uint64_t *tests = &counters.primitive_tests;
     if (geometry.kind == GeometryKind::Boxes) {
         const BoxPrimitives boxes{geometry, prim_ids, box_ray};
-        traverse<false, false>(wide, prim_ids, CountedSlots<BoxPrimitives>{boxes, &counters.primitive_tests}, nray,
-                               tray, PacketRay{}, r.tmin, r.tmax, hit);
+        traverse<false, false>(wide, prim_ids, CountedPrimitives<BoxPrimitives>{boxes, tests}, nray, tray,
+                               PacketRay{}, r.tmin, r.tmax, hit);
     } else {
         const TrianglePrimitives triangles{geometry, prim_ids, tray};
-        traverse<false, false>(wide, prim_ids, CountedSlots<TrianglePrimitives>{triangles, &counters.primitive_tests},
-                               nray, tray, PacketRay{}, r.tmin, r.tmax, hit);
+        traverse<false, false>(wide, prim_ids, CountedPrimitives<TrianglePrimitives>{triangles, tests}, nray, tray,
+                               PacketRay{}, r.tmin, r.tmax, hit);
     }
     scaled.unscale(hit);
 }

@@ -15,7 +15,7 @@ namespace {
 struct NodeRay {
     long near[3], far[3]; ///< rows of Wide8Node::box (long: no extension per node)
     float org[3], inv[3];
-    float inv_far[3];      ///< inv * kFarScale, for exits when the window starts at 0 or later
+    float inv_exit[3];     ///< for exit distances: inv_far when window_from_zero, else inv
     bool window_from_zero; ///< tmin >= 0: exits as ray_box_from_zero() finds them
 };
 
@@ -26,9 +26,9 @@ inline NodeRay make_node_ray(const BoxRay &r, float tmin) {
         w.far[a] = 2 * a + (r.neg[a] ? 0 : 1);
         w.org[a] = r.org[a];
         w.inv[a] = r.inv[a];
-        w.inv_far[a] = r.inv_far[a];
     }
     w.window_from_zero = tmin >= 0.0f;
+    for (int a = 0; a < 3; ++a) w.inv_exit[a] = w.window_from_zero ? r.inv_far[a] : r.inv[a];
     return w;
 }
 
@@ -36,13 +36,12 @@ inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmi
     unsigned mask = 0;
     // ray_box_from_zero() where the window starts at 0 or later, else
     // ray_box_conservative(), lane by lane.
-    const float *inv_far = r.window_from_zero ? r.inv_far : r.inv;
     const float b0 = r.window_from_zero ? exit_reach(tmax) : tmax;
     for (int k = 0; k < 8; ++k) {
         float a = tmin, b = b0;
         for (int ax = 0; ax < 3; ++ax) {
             const float n = (node.box[r.near[ax]][k] - r.org[ax]) * r.inv[ax];
-            const float f = (node.box[r.far[ax]][k] - r.org[ax]) * inv_far[ax];
+            const float f = (node.box[r.far[ax]][k] - r.org[ax]) * r.inv_exit[ax];
             a = n > a ? n : a;
             b = f < b ? f : b;
         }

@@ -21,7 +21,7 @@ namespace {
 struct NodeRay {
     long near[3], far[3]; ///< rows of Wide8Node::box (long: no extension per node)
     __m128 org[3], inv[3];
-    __m128 inv_far[3];     ///< inv * kFarScale, for exits when the window starts at 0 or later
+    __m128 inv_exit[3];    ///< for exit distances: inv_far when window_from_zero, else inv
     bool window_from_zero; ///< tmin >= 0: exits as ray_box_from_zero() finds them
 };
 
@@ -32,48 +32,41 @@ inline NodeRay make_node_ray(const BoxRay &r, float tmin) {
         w.far[a] = 2 * a + (r.neg[a] ? 0 : 1);
         w.org[a] = _mm_set1_ps(r.org[a]);
         w.inv[a] = _mm_set1_ps(r.inv[a]);
-        w.inv_far[a] = _mm_set1_ps(r.inv_far[a]);
     }
     w.window_from_zero = tmin >= 0.0f;
+    for (int a = 0; a < 3; ++a) w.inv_exit[a] = _mm_set1_ps(w.window_from_zero ? r.inv_far[a] : r.inv[a]);
     return w;
 }
 
 /// Lanes [h, h + 4) of the node test (see wide_traversal.cpp's four-box test;
-/// exits as in the AVX2 kernel: through inv_far when the window starts at 0
-/// or later, else widened by their magnitude). `reach` is exit_reach(tmax).
-inline unsigned test_four(const Wide8Node &node, const NodeRay &r, int h, __m128 tmin, __m128 tmax, __m128 reach,
+/// exits as in the AVX2 kernel). `bound` is the window's end as the exits
+/// are compared with it: exit_reach(tmax) when the window starts at 0 or
+/// later, else tmax, the exits then widened by their magnitude.
+inline unsigned test_four(const Wide8Node &node, const NodeRay &r, int h, __m128 tmin, __m128 bound,
                           float *t_entry) {
     const __m128 nx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.near[0]] + h), r.org[0]), r.inv[0]);
     const __m128 ny = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.near[1]] + h), r.org[1]), r.inv[1]);
     const __m128 nz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.near[2]] + h), r.org[2]), r.inv[2]);
+    const __m128 fx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.far[0]] + h), r.org[0]), r.inv_exit[0]);
+    const __m128 fy = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.far[1]] + h), r.org[1]), r.inv_exit[1]);
+    const __m128 fz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.far[2]] + h), r.org[2]), r.inv_exit[2]);
     __m128 a = _mm_max_ps(nx, tmin);
     a = _mm_max_ps(ny, a);
     a = _mm_max_ps(nz, a);
-    _mm_store_ps(t_entry + h, a);
-    __m128 b;
-    if (r.window_from_zero) {
-        const __m128 fx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.far[0]] + h), r.org[0]), r.inv_far[0]);
-        const __m128 fy = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.far[1]] + h), r.org[1]), r.inv_far[1]);
-        const __m128 fz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.far[2]] + h), r.org[2]), r.inv_far[2]);
-        b = _mm_min_ps(fx, reach);
-        b = _mm_min_ps(fy, b);
-        b = _mm_min_ps(fz, b);
-    } else {
-        const __m128 fx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.far[0]] + h), r.org[0]), r.inv[0]);
-        const __m128 fy = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.far[1]] + h), r.org[1]), r.inv[1]);
-        const __m128 fz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.far[2]] + h), r.org[2]), r.inv[2]);
-        b = _mm_min_ps(fx, tmax);
-        b = _mm_min_ps(fy, b);
-        b = _mm_min_ps(fz, b);
+    __m128 b = _mm_min_ps(fx, bound);
+    b = _mm_min_ps(fy, b);
+    b = _mm_min_ps(fz, b);
+    if (!r.window_from_zero) {
         const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7FFFFFFF));
         b = _mm_add_ps(b, _mm_mul_ps(_mm_and_ps(b, abs_mask), _mm_set1_ps(kTwoGamma3)));
     }
+    _mm_store_ps(t_entry + h, a);
     return unsigned(_mm_movemask_ps(_mm_cmple_ps(a, b)));
 }
 
 inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float tmax, float t_entry[8]) {
-    const __m128 lo = _mm_set1_ps(tmin), hi = _mm_set1_ps(tmax), reach = _mm_set1_ps(exit_reach(tmax));
-    return test_four(node, r, 0, lo, hi, reach, t_entry) | (test_four(node, r, 4, lo, hi, reach, t_entry) << 4);
+    const __m128 lo = _mm_set1_ps(tmin), bound = _mm_set1_ps(r.window_from_zero ? exit_reach(tmax) : tmax);
+    return test_four(node, r, 0, lo, bound, t_entry) | (test_four(node, r, 4, lo, bound, t_entry) << 4);
 }
 
 using PacketRay = PacketRaySse;

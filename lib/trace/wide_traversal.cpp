@@ -226,16 +226,6 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
     return best.found;
 }
 
-/// A leaf-test adapter that counts its tests (intersect_ray_wide()'s counters).
-template <class Primitives> struct CountedPrimitives {
-    const Primitives &prims;
-    uint64_t *tests;
-    bool intersect(uint32_t slot, float tmin, float tmax, float &t, float &u, float &v) const {
-        ++*tests;
-        return prims.intersect(slot, tmin, tmax, t, u, v);
-    }
-};
-
 template <bool AnyHit>
 bool query(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const float *triangles,
            const aacbvh_ray &ray, aacbvh_hit &hit, TraversalCounters *counters) {
