@@ -47,23 +47,31 @@ void check_stride(size_t stride, size_t minimum, const char *what) {
 /// when it ends, failed or not. Without it, the cache is dropped.
 class BvhObject::KeptMemory {
 public:
-    KeptMemory(std::unique_ptr<BlockCache> &kept, bool keep) : cache_(prepare(kept, keep)), scope_(cache_) {}
+    KeptMemory(std::unique_ptr<BlockCache> &kept, bool keep)
+        : cache_(prepare(kept, keep, local_)), keep_(keep), scope_(cache_) {}
     ~KeptMemory() {
-        if (cache_) cache_->end_build();
+        if (keep_) cache_->end_build();//
     }
     KeptMemory(const KeptMemory &) = delete;
     KeptMemory &operator=(const KeptMemory &) = delete;
 
 private:
-    static BlockCache *prepare(std::unique_ptr<BlockCache> &kept, bool keep) {
-        if (!keep)
+    /// With keep, the handle's cache; without, one that lives for this build
+    /// only: the arrays a build frees early (Morton codes, the binary tree)
+    /// serve the ones it allocates later (the layouts), and what is left goes
+    /// back to the system when the build ends.
+    static BlockCache *prepare(std::unique_ptr<BlockCache> &kept, bool keep, BlockCache &local) {
+        if (!keep) {
             kept.reset();
-        else if (!kept)
-            kept.reset(new BlockCache());
-        if (kept) kept->begin_build();
+            return &local;
+        }
+        if (!kept) kept.reset(new BlockCache());
+        kept->begin_build();
         return kept.get();
     }
+    BlockCache local_; // declared first: prepare() hands it out
     BlockCache *cache_;
+    bool keep_;
     BlockCache::Scope scope_;
 };
 

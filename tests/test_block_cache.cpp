@@ -86,6 +86,56 @@ void test_loose_fit_returns_everything(void **) {
     assert_int_equal(aacbvh::testing::system_block_bytes.load(), before);
 }
 
+/// A block bigger than asked for serves several arrays in turn: the front
+/// goes out, the rest stays kept, and every page still goes back once.
+void test_take_part_splits(void **) {
+    const int64_t before = aacbvh::testing::system_block_bytes.load();
+    {
+        BlockCache cache;
+        char *b8 = static_cast<char *>(block(8 * kMiB));
+        cache.keep(b8, 8 * kMiB);
+        assert_null(cache.take_part(8 * kMiB)); // not bigger: take() serves that
+        assert_null(cache.take_part(9 * kMiB));
+        assert_null(cache.take(3 * kMiB)); // 8 MiB is too loose a fit for take()
+        assert_ptr_equal(cache.take_part(3 * kMiB), b8);
+        assert_int_equal(cache.bytes(), 5 * kMiB);
+        assert_ptr_equal(cache.take_part(2 * kMiB), b8 + 3 * kMiB);
+        assert_int_equal(cache.bytes(), 3 * kMiB);
+        assert_ptr_equal(cache.take(3 * kMiB), b8 + 5 * kMiB); // the rest, exactly
+        assert_int_equal(cache.bytes(), 0);
+        cache.keep(b8 + 3 * kMiB, 2 * kMiB);
+        aacbvh::free_system_block(b8, 3 * kMiB);
+        aacbvh::free_system_block(b8 + 5 * kMiB, 3 * kMiB);
+        // Of two blocks that hold more, the smaller is split.
+        char *b4 = static_cast<char *>(block(4 * kMiB));
+        cache.keep(b4, 4 * kMiB);
+        assert_ptr_equal(cache.take_part(kMiB), b8 + 3 * kMiB);
+        assert_int_equal(cache.bytes(), 5 * kMiB);
+        aacbvh::free_system_block(b8 + 3 * kMiB, kMiB);
+    } // the cache frees the 1 MiB rest and the 4 MiB block
+    assert_int_equal(aacbvh::testing::system_block_bytes.load(), before);
+}
+
+/// Through the allocator: an array freed early serves the smaller ones that
+/// come after it, with no new block from the system.
+void test_allocator_splits_freed_blocks(void **) {
+    const int64_t before = aacbvh::testing::system_block_bytes.load();
+    {
+        BlockCache cache;
+        const BlockCache::Scope installed(&cache);
+        { aacbvh::Array<float> big(12 * kMiB / sizeof(float)); }
+        const int64_t mapped = aacbvh::testing::system_block_mapped.load();
+        {
+            aacbvh::Array<float> a(5 * kMiB / sizeof(float)), b(4 * kMiB / sizeof(float)), c(3 * kMiB / sizeof(float));
+            for (float *p : {a.data(), b.data(), c.data()}) p[0] = 1.0f; // usable memory
+            assert_int_equal(cache.bytes(), 0);
+        }
+        assert_int_equal(aacbvh::testing::system_block_mapped.load(), mapped);
+        assert_int_equal(cache.bytes(), 12 * kMiB);
+    }
+    assert_int_equal(aacbvh::testing::system_block_bytes.load(), before);
+}
+
 void test_build_generations(void **) {
     BlockCache cache;
     cache.keep(block(2 * kMiB), 2 * kMiB);
@@ -160,6 +210,38 @@ void test_handle_keeps_and_frees(void **) {
     assert_int_equal(object.kept_build_bytes(), 0);
     object.build();
     assert_int_equal(object.kept_build_bytes(), 0);
+}
+
+/// A build without kept memory reuses the blocks it frees for the ones it
+/// allocates later (its own BlockCache), so it maps from the system less
+/// than its peak (200 K triangles, AAC-Fast: 0.89 of it; 1.46 without the
+/// reuse), and gives back everything but the finished tree. AAC-HQ maps
+/// 1.37 of its peak: its later arrays are a little bigger than the ones
+/// freed before them, so only the bound below holds for it.
+void test_build_reuses_freed_blocks(void **) {
+    aacbvh::Scheduler scheduler(1);
+    const std::vector<float> vertices = random_soup(200000, 8);
+    for (int builder : {AACBVH_BUILDER_AAC_FAST, AACBVH_BUILDER_AAC_HQ}) {
+        const int64_t held = aacbvh::testing::system_block_bytes.load();
+        {
+            aacbvh::BvhObject object(scheduler);
+            set_soup(object, vertices);
+            object.set_param_int(AACBVH_PARAM_BUILDER, builder);
+            const int64_t mapped = aacbvh::testing::system_block_mapped.load();
+            object.build();
+            const int64_t build_mapped = aacbvh::testing::system_block_mapped.load() - mapped;
+            aacbvh_stats stats{};
+            stats.struct_size = sizeof stats;
+            object.stats(stats);
+            const double ratio = double(build_mapped) / double(stats.build_peak_bytes);
+            if (ratio > (builder == AACBVH_BUILDER_AAC_FAST ? 1.1 : 1.45))
+                fail_msg("builder %d mapped %.2f times its peak", builder, ratio);
+            assert_int_equal(object.kept_build_bytes(), 0);
+            // What the build still holds from the system is the handle's tree.
+            assert_true(aacbvh::testing::system_block_bytes.load() - held <= int64_t(stats.memory_bytes));
+        }
+        assert_int_equal(aacbvh::testing::system_block_bytes.load(), held);
+    }
 }
 
 bool same_tree(const aacbvh::Bvh &a, const aacbvh::Bvh &b) {
@@ -253,10 +335,13 @@ int main() {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_take_best_fit),
         cmocka_unit_test(test_loose_fit_returns_everything),
+        cmocka_unit_test(test_take_part_splits),
+        cmocka_unit_test(test_allocator_splits_freed_blocks),
         cmocka_unit_test(test_build_generations),
         cmocka_unit_test(test_full_cache_frees),
         cmocka_unit_test(test_allocator_uses_installed_cache),
         cmocka_unit_test(test_handle_keeps_and_frees),
+        cmocka_unit_test(test_build_reuses_freed_blocks),
         cmocka_unit_test(test_failures_with_kept_memory),
         cmocka_unit_test(test_wide_tree_is_metered),
     };

@@ -22,6 +22,18 @@ void *BlockCache::take(size_t bytes) noexcept {
     return p;
 }
 
+void *BlockCache::take_part(size_t bytes) noexcept {
+    size_t best = count_;
+    for (size_t i = 0; i < count_; ++i)
+        if (blocks_[i].bytes > bytes && (best == count_ || blocks_[i].bytes < blocks_[best].bytes)) best = i;
+    if (best == count_) return nullptr;
+    Block &rest = blocks_[best];
+    void *p = rest.pointer;
+    rest.pointer = static_cast<char *>(p) + bytes;
+    rest.bytes -= bytes;
+    return p;
+}
+
 void BlockCache::keep(void *block, size_t bytes) noexcept {
     if (count_ == kMaxBlocks) {
         free_system_block(block, bytes);

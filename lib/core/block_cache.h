@@ -1,5 +1,8 @@
-// Large blocks a BVH handle keeps from one build to the next
-// (AACBVH_PARAM_KEEP_BUILD_MEMORY), for applications that rebuild every frame.
+// Large blocks kept for reuse instead of returned to the system: within one
+// build (every build installs a cache of its own, so the arrays it frees early
+// serve the ones it makes later), and, with AACBVH_PARAM_KEEP_BUILD_MEMORY,
+// from one build of a handle to the next, for applications that rebuild every
+// frame.
 //
 // A fresh build touches all of its peak memory (build_peak_bytes) new, and the
 // kernel clears every page of it on first touch: a sizeable part of a build,
@@ -10,8 +13,9 @@
 // system, and the next build takes them back: warm pages, no faults.
 //
 // Only the thread that installed the cache touches it, so it needs no lock.
-// Blocks are core/memory.h's system blocks (mapped directly, 2 MiB aligned):
-// one allocated from the cache may be freed anywhere. The cache never allocates (it is used from deallocation).
+// Blocks are core/memory.h's system blocks (mapped directly, page aligned;
+// 2 MiB aligned unless they are the rest of a split one): one allocated from
+// the cache may be freed anywhere. The cache never allocates (it is used from deallocation).
 #pragma once
 
 #include <cstddef>
@@ -27,6 +31,11 @@ public:
 
     /// A kept block of at least `bytes` (and at most 1/8 more), or nullptr.
     void *take(size_t bytes) noexcept;
+    /// The first `bytes` (whole pages) of the smallest kept block that holds
+    /// more; the rest stays kept as a block of its own (with the first's
+    /// generation), so one freed array can serve several smaller ones.
+    /// nullptr when no block is big enough.
+    void *take_part(size_t bytes) noexcept;
     /// Keeps a block of `bytes`; frees it when the cache is full.
     void keep(void *block, size_t bytes) noexcept;
     /// Frees every kept block.

@@ -7,6 +7,7 @@ namespace testing {
 
 std::atomic<int64_t> alloc_fail_countdown{0};
 std::atomic<int64_t> system_block_bytes{0};
+std::atomic<int64_t> system_block_mapped{0};
 
 bool take_injected_failure() noexcept {
     int64_t left = alloc_fail_countdown.load(std::memory_order_relaxed);

@@ -8,7 +8,9 @@
 // of per 4 KiB), as Embree does for its build memory.
 //
 // With a BlockCache installed on the thread (core/block_cache.h), big blocks
-// are taken from it and given back to it instead of the system.
+// are taken from it (a kept block of about the size asked for, else the front
+// of a bigger one) and given back to it instead of the system. Every build
+// installs one: the handle's (AACBVH_PARAM_KEEP_BUILD_MEMORY) or its own.
 //
 // Tests inject allocation failures through testing::alloc_fail_countdown
 // (tests/test_out_of_memory.cpp): every allocation made here consults it, at
@@ -43,7 +45,14 @@ bool take_injected_failure() noexcept;
 /// destroying every handle gives everything back.
 extern std::atomic<int64_t> system_block_bytes;
 
-inline void count_system_block(int64_t bytes) { system_block_bytes.fetch_add(bytes, std::memory_order_relaxed); }
+/// Bytes of big blocks mapped from the system so far (never decreases):
+/// tests read it to check that a build reuses the blocks it frees.
+extern std::atomic<int64_t> system_block_mapped;
+
+inline void count_system_block(int64_t bytes) {
+    system_block_bytes.fetch_add(bytes, std::memory_order_relaxed);
+    if (bytes > 0) system_block_mapped.fetch_add(bytes, std::memory_order_relaxed);
+}
 
 /// Throws std::bad_alloc when an injected failure is due.
 inline void check_allocation() {
@@ -105,7 +114,7 @@ constexpr size_t kPageBytes = size_t(1) << 12;
 constexpr size_t round_to_block(size_t bytes) { return (bytes + kPageBytes - 1) & ~(kPageBytes - 1); }
 
 /// Over-aligned element types (such as 64-byte wide nodes) get their
-/// alignment in small blocks too; big blocks are 2 MiB aligned anyway.
+/// alignment in small blocks too; big blocks are page aligned anyway.
 inline bool over_aligned(size_t align) { return align > __STDCPP_DEFAULT_NEW_ALIGNMENT__; }
 
 /// A big block straight from the system: `rounded_bytes` (a multiple of
@@ -123,8 +132,10 @@ inline void *allocate_build_memory(size_t bytes, size_t align = alignof(std::max
     if (bytes < kHugePageBytes)
         return over_aligned(align) ? ::operator new(bytes, std::align_val_t(align)) : ::operator new(bytes);
     const size_t rounded = round_to_block(bytes);
-    if (BlockCache *cache = BlockCache::current())
+    if (BlockCache *cache = BlockCache::current()) {
         if (void *kept = cache->take(rounded)) return kept;
+        if (void *part = cache->take_part(rounded)) return part;
+    }
     return allocate_system_block(rounded);
 }
 
