@@ -141,10 +141,14 @@ void test_build_generations(void **) {
     cache.keep(block(2 * kMiB), 2 * kMiB);
     cache.keep(block(4 * kMiB), 4 * kMiB);
     cache.begin_build();
+    assert_null(cache.take_part(kMiB)); // blocks of an earlier build stay whole
     void *taken = cache.take(4 * kMiB);  // reused by this build
     assert_non_null(taken);
     cache.keep(block(6 * kMiB), 6 * kMiB); // freed by this build
-    cache.end_build();                      // frees the unused 2 MiB block
+    char *part = static_cast<char *>(cache.take_part(kMiB)); // this build's blocks may be split
+    assert_non_null(part);
+    cache.keep(part, kMiB);
+    cache.end_build(); // frees the unused 2 MiB block
     assert_int_equal(cache.bytes(), 6 * kMiB);
     cache.keep(taken, 4 * kMiB);
     assert_int_equal(cache.bytes(), 10 * kMiB);

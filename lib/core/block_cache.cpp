@@ -25,7 +25,8 @@ void *BlockCache::take(size_t bytes) noexcept {
 void *BlockCache::take_part(size_t bytes) noexcept {
     size_t best = count_;
     for (size_t i = 0; i < count_; ++i)
-        if (blocks_[i].bytes > bytes && (best == count_ || blocks_[i].bytes < blocks_[best].bytes)) best = i;
+        if (!blocks_[i].old && blocks_[i].bytes > bytes && (best == count_ || blocks_[i].bytes < blocks_[best].bytes))
+            best = i;
     if (best == count_) return nullptr;
     Block &rest = blocks_[best];
     void *p = rest.pointer;

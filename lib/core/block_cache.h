@@ -31,10 +31,11 @@ public:
 
     /// A kept block of at least `bytes` (and at most 1/8 more), or nullptr.
     void *take(size_t bytes) noexcept;
-    /// The first `bytes` (whole pages) of the smallest kept block that holds
-    /// more; the rest stays kept as a block of its own (with the first's
-    /// generation), so one freed array can serve several smaller ones.
-    /// nullptr when no block is big enough.
+    /// The first `bytes` (whole pages) of the smallest block freed since
+    /// begin_build() that holds more; the rest stays kept as a block of its
+    /// own, so one freed array can serve several smaller ones. Blocks kept
+    /// from an earlier build stay whole for take(): the next build asks for
+    /// the same sizes. nullptr when no block is big enough.
     void *take_part(size_t bytes) noexcept;
     /// Keeps a block of `bytes`; frees it when the cache is full.
     void keep(void *block, size_t bytes) noexcept;
