@@ -134,16 +134,6 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
     // Padding lanes read by the SIMD row get a harmless box.
     for (uint32_t i = count; i < stride; ++i) boxes.set(i, tree.boxes[ids[0]]);
 
-    // row(i) points at d(i, .) for the live clusters.
-    auto row = [&](uint32_t i, uint32_t live) -> const float * {
-        if (kMatrix) return matrix + size_t(i) * stride;
-        float *out = matrix; // one scratch row
-        boxes.query(i, q);
-        distance_row(boxes.columns(), live, q, scale, out);
-        out[i] = INFINITY;
-        return out;
-    };
-
     // Work between two polls is bounded in distance evaluations: a combine
     // of 2^20 clusters (delta 2^20, or alpha = 1) does 2^40 in its first scan.
     PollingCounter work(ctx);
@@ -203,7 +193,15 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
         // only compare with the new cluster. (Without the matrix the rescans
         // reuse da's row, so da is read first.)
         const uint32_t rescans = update_nearest(da, nd, nn, live, a, b, last, rescan);
-        for (uint32_t k = 0; k < rescans; ++k) nn[rescan[k]] = argmin_row(row(rescan[k], live), live, nd[rescan[k]]);
+        for (uint32_t k = 0; k < rescans; ++k) {
+            const uint32_t j = rescan[k];
+            if (kMatrix) {
+                nn[j] = argmin_row(matrix + size_t(j) * stride, live, nd[j]);
+            } else { // the row recomputed, and its minimum, in one pass
+                boxes.query(j, q);
+                nn[j] = distance_row_argmin(boxes.columns(), live, q, scale, matrix, j, nd[j]);
+            }
+        }
         rows_done(1 + (kMatrix ? 0 : rescans), live);
     }
 
@@ -374,12 +372,17 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
     // With AVX2, combines of 9 to kWideSmallCombine clusters recompute rows in
     // registers, faster than the matrix; up to 8 the scalar loop stays faster
     // (docs/PERFORMANCE.md, change 51).
+    // Above that, AVX2 rows recomputed when needed beat the matrix's
+    // bookkeeping (two strided column writes per merge) at every size
+    // (change 76: dragon, the combines of ranges of 4,096 primitives and
+    // more, AAC-Fast 29 -> 20 ms, AAC-HQ 38 -> 27 ms).
     const bool avx2 = distance_kernel() == DistanceKernel::Avx2;
     const uint32_t small_limit = avx2 ? kWideSmallCombine : kSmallCombine;
+    const uint32_t matrix_limit = avx2 ? kWideSmallCombine : kMatrixCombine;
     if (variant == CombineVariant::Automatic)
-        variant = count <= small_limit      ? CombineVariant::Small
-                  : count <= kMatrixCombine ? CombineVariant::Matrix
-                                            : CombineVariant::Rows;
+        variant = count <= small_limit    ? CombineVariant::Small
+                  : count <= matrix_limit ? CombineVariant::Matrix
+                                          : CombineVariant::Rows;
     if (variant == CombineVariant::Small && count <= small_limit) {
         if (count == target + 1 && count <= kSmallCombine)
             return combine_once(tree, ids, free_ids, count, scale, rule, choices);
