@@ -81,33 +81,33 @@ private:
         std::vector<Item> stack{{root, root_pos, root_below, root_prim}};
         std::vector<uint32_t> gather;
         while (!stack.empty()) {
-            const Item it = stack.back();
+            Item it = stack.back();
             stack.pop_back();
-            if (leaves(it.id) == 1) {
-                Node &node = out_.nodes[it.pos];
-                node.box = tree_.boxes[it.id];
-                node.first = it.prim;
-                node.count = prims(it.id);
-                uint32_t slot = it.prim;
-                gather.push_back(it.id);
-                while (!gather.empty()) {
-                    const uint32_t g = gather.back();
-                    gather.pop_back();
-                    if (tree_.is_leaf(g)) {
-                        out_.prim_ids[slot++] = tree_.prim_ids[g];
-                    } else {
-                        gather.push_back(tree_.right(g));
-                        gather.push_back(tree_.left(g));
-                    }
-                }
-                continue;
+            // Down the left children; the right ones wait on the stack.
+            while (leaves(it.id) != 1) {
+                const uint32_t l = tree_.left(it.id), r = tree_.right(it.id);
+                prefetch(r);
+                set_inner(it.id, it.pos, it.below);
+                const uint32_t left_nodes = 2 * leaves(l) - 1;
+                stack.push_back({r, it.below + 1, it.below + 2 + (left_nodes - 1), it.prim + prims(l)});
+                it = Item{l, it.below, it.below + 2, it.prim};
             }
-            const uint32_t l = tree_.left(it.id), r = tree_.right(it.id);
-            prefetch(r);
-            set_inner(it.id, it.pos, it.below);
-            const uint32_t left_nodes = 2 * leaves(l) - 1;
-            stack.push_back({r, it.below + 1, it.below + 2 + (left_nodes - 1), it.prim + prims(l)});
-            stack.push_back({l, it.below, it.below + 2, it.prim});
+            Node &node = out_.nodes[it.pos];
+            node.box = tree_.boxes[it.id];
+            node.first = it.prim;
+            node.count = prims(it.id);
+            uint32_t slot = it.prim;
+            gather.push_back(it.id);
+            while (!gather.empty()) {
+                const uint32_t g = gather.back();
+                gather.pop_back();
+                if (tree_.is_leaf(g)) {
+                    out_.prim_ids[slot++] = tree_.prim_ids[g];
+                } else {
+                    gather.push_back(tree_.right(g));
+                    gather.push_back(tree_.left(g));
+                }
+            }
         }
     }
 
