@@ -41,10 +41,12 @@ void check_stride(size_t stride, size_t minimum, const char *what) {
 
 } // namespace
 
-/// AACBVH_PARAM_KEEP_BUILD_MEMORY for one build or optimisation: with it, big
-/// blocks come from and go back to the handle's cache for the whole operation,
-/// the replaced tree's included; whatever the operation did not reuse is freed
-/// when it ends, failed or not. Without it, the cache is dropped.
+/// The block cache of one build or optimisation. With
+/// AACBVH_PARAM_KEEP_BUILD_MEMORY, big blocks come from and go back to the
+/// handle's cache for the whole operation, the replaced tree's included;
+/// whatever the operation did not reuse is freed when it ends, failed or not.
+/// Without it, the handle's cache is dropped and the operation uses one of
+/// its own, freed when it ends.
 class BvhObject::KeptMemory {
 public:
     KeptMemory(std::unique_ptr<BlockCache> &kept, bool keep)

@@ -233,7 +233,8 @@ typedef enum aacbvh_param {
      *  does not reuse are freed at its end; setting 0 frees them at once, as
      *  does destroying the handle. Trees are identical either way.
      *  aacbvh_bvh_optimize() uses the kept blocks as a build does (since 1.2).
-     *  Default 0. */
+     *  Either way a build reuses the blocks it frees for its own later
+     *  arrays (since 1.2). Default 0. */
     AACBVH_PARAM_KEEP_BUILD_MEMORY = 11,
     /** int in [0, AACBVH_MAX_OPTIMIZE_PASSES] (since 1.2): passes of
      *  aacbvh_bvh_optimize() run at the end of every build, counted in its
