@@ -52,7 +52,7 @@ public:
     KeptMemory(std::unique_ptr<BlockCache> &kept, bool keep)
         : cache_(prepare(kept, keep, local_)), keep_(keep), scope_(cache_) {}
     ~KeptMemory() {
-        if (keep_) cache_->end_build();//
+        if (keep_) cache_->end_build();
     }
     KeptMemory(const KeptMemory &) = delete;
     KeptMemory &operator=(const KeptMemory &) = delete;

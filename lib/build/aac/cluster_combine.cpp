@@ -371,11 +371,10 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
     if (count <= target) return count;
     // With AVX2, combines of 9 to kWideSmallCombine clusters recompute rows in
     // registers, faster than the matrix; up to 8 the scalar loop stays faster
-    // (docs/PERFORMANCE.md, change 51).
-    // Above that, AVX2 rows recomputed when needed beat the matrix's
-    // bookkeeping (two strided column writes per merge) at every size
-    // (change 76: dragon, the combines of ranges of 4,096 primitives and
-    // more, AAC-Fast 29 -> 20 ms, AAC-HQ 38 -> 27 ms).
+    // (docs/PERFORMANCE.md, change 51). Above that, AVX2 rows recomputed when
+    // needed beat the matrix's bookkeeping (two strided column writes per
+    // merge) at every size (change 76: dragon, the combines of ranges of
+    // 4,096 primitives and more, AAC-Fast 29 -> 19 ms, AAC-HQ 38 -> 25 ms).
     const bool avx2 = distance_kernel() == DistanceKernel::Avx2;
     const uint32_t small_limit = avx2 ? kWideSmallCombine : kSmallCombine;
     const uint32_t matrix_limit = avx2 ? kWideSmallCombine : kMatrixCombine;

@@ -67,9 +67,9 @@ private:
 /// Three loops give the same merges: a register-sized one for at most
 /// kSmallCombine clusters (kWideSmallCombine with the AVX2 kernel,
 /// build/aac/combine_small.h), one over a cached distance matrix up to
-/// kMatrixCombine (never with the AVX2 kernel), and one that recomputes
-/// rows beyond. `variant` picks one
-/// for tests (Small beyond its limit runs the matrix); builds pass Automatic.
+/// kMatrixCombine (never with the AVX2 kernel), and one that recomputes rows
+/// beyond. `variant` picks one for tests (Small beyond its limit runs the
+/// matrix); builds pass Automatic.
 enum class CombineVariant { Automatic, Small, Matrix, Rows };
 constexpr uint32_t kSmallCombine = 16;
 constexpr uint32_t kMatrixCombine = 2048;
