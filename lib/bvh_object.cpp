@@ -49,10 +49,9 @@ void check_stride(size_t stride, size_t minimum, const char *what) {
 /// its own, freed when it ends.
 class BvhObject::KeptMemory {
 public:
-    KeptMemory(std::unique_ptr<BlockCache> &kept, bool keep)
-        : cache_(prepare(kept, keep, local_)), keep_(keep), scope_(cache_) {}
+    KeptMemory(std::unique_ptr<BlockCache> &kept, bool keep) : cache_(prepare(kept, keep, local_)), scope_(cache_) {}
     ~KeptMemory() {
-        if (keep_) cache_->end_build();
+        if (cache_ != &local_) cache_->end_build(); // the handle's: keep what this build freed
     }
     KeptMemory(const KeptMemory &) = delete;
     KeptMemory &operator=(const KeptMemory &) = delete;
@@ -73,7 +72,6 @@ private:
     }
     BlockCache local_; // declared first: prepare() hands it out
     BlockCache *cache_;
-    bool keep_;
     BlockCache::Scope scope_;
 };
 

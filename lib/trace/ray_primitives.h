@@ -126,6 +126,10 @@ template <class Primitives> struct CountedPrimitives {
     }
 };
 
+template <class Primitives> CountedPrimitives<Primitives> count_tests(const Primitives &prims, uint64_t *tests) {
+    return CountedPrimitives<Primitives>{prims, tests};
+}
+
 /// Calls visit(prims) with the leaf-test adapter that fits the geometry:
 /// boxes, the BVH's own triangle copy (when `triangles` is non-null), or the
 /// caller's triangles. Both traversals dispatch here.

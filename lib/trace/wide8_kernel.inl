@@ -173,8 +173,12 @@ bool traverse(const Wide8Bvh &wide, const uint32_t *prim_ids, const Slots &slots
     return best.found;
 }
 
-template <bool AnyHit>
-bool query(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray, aacbvh_hit &hit) {
+/// One query. With Counted, leaf tests over slots (triangles referenced, or
+/// boxes) are counted into *tests (for the tests of the visiting order); a
+/// tree with packet leaves is answered without counting. The same answer.
+template <bool AnyHit, bool Counted = false>
+bool query(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray, aacbvh_hit &hit,
+           uint64_t *tests = nullptr) {
     if (wide.node_count() == 0 || geometry.kind == GeometryKind::None || !ray_is_valid(ray)) {
         set_miss(hit);
         return false;
@@ -184,19 +188,23 @@ bool query(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const
     const BoxRay box_ray = make_box_ray(r.org, r.dir);
     const NodeRay nray = make_node_ray(box_ray, r.tmin);
     const uint32_t *prim_ids = bvh.prim_ids.data();
+    auto over_slots = [&](const auto &prims, const TriangleRay &tray) {
+        if constexpr (Counted)
+            return traverse<AnyHit, false>(wide, prim_ids, count_tests(prims, tests), nray, tray, PacketRay{},
+                                           r.tmin, r.tmax, hit);
+        else
+            return traverse<AnyHit, false>(wide, prim_ids, prims, nray, tray, PacketRay{}, r.tmin, r.tmax, hit);
+    };
     bool found;
     if (geometry.kind == GeometryKind::Boxes) {
-        const TriangleRay unused{};
-        found = traverse<AnyHit, false>(wide, prim_ids, BoxPrimitives{geometry, prim_ids, box_ray}, nray, unused,
-                                        PacketRay{}, r.tmin, r.tmax, hit);
+        found = over_slots(BoxPrimitives{geometry, prim_ids, box_ray}, TriangleRay{});
     } else {
         const TriangleRay tray = make_triangle_ray(r.org, r.dir);
         if (wide.has_packets())
             found = traverse<AnyHit, true>(wide, prim_ids, NoSlots{}, nray, tray, make_packet_ray(tray), r.tmin,
                                            r.tmax, hit);
         else
-            found = traverse<AnyHit, false>(wide, prim_ids, TrianglePrimitives{geometry, prim_ids, tray}, nray, tray,
-                                            PacketRay{}, r.tmin, r.tmax, hit);
+            found = over_slots(TrianglePrimitives{geometry, prim_ids, tray}, tray);
     }
     if (!AnyHit) scaled.unscale(hit);
     return found;
@@ -207,32 +215,11 @@ void intersect_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geome
     query<false>(wide, bvh, geometry, ray, hit);
 }
 
-/// intersect_entry() over slot leaves (triangles referenced, or boxes),
-/// counting the primitive tests into counters.primitive_tests; the same
-/// steps and answer. A tree with packet leaves is answered without counting.
+/// intersect_entry(), counting primitive tests over slot leaves into
+/// counters.primitive_tests.
 void intersect_counted_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
                              aacbvh_hit &hit, TraversalCounters &counters) {
-    if (wide.node_count() == 0 || geometry.kind == GeometryKind::None || !ray_is_valid(ray) || wide.has_packets()) {
-        query<false>(wide, bvh, geometry, ray, hit);
-        return;
-    }
-    const ScaledRay scaled(ray);
-    const aacbvh_ray &r = scaled.ray;
-    const BoxRay box_ray = make_box_ray(r.org, r.dir);
-    const NodeRay nray = make_node_ray(box_ray, r.tmin);
-    const uint32_t *prim_ids = bvh.prim_ids.data();
-    const TriangleRay tray = make_triangle_ray(r.org, r.dir);
-    uint64_t *tests = &counters.primitive_tests;
-    if (geometry.kind == GeometryKind::Boxes) {
-        const BoxPrimitives boxes{geometry, prim_ids, box_ray};
-        traverse<false, false>(wide, prim_ids, CountedPrimitives<BoxPrimitives>{boxes, tests}, nray, tray,
-                               PacketRay{}, r.tmin, r.tmax, hit);
-    } else {
-        const TrianglePrimitives triangles{geometry, prim_ids, tray};
-        traverse<false, false>(wide, prim_ids, CountedPrimitives<TrianglePrimitives>{triangles, tests}, nray, tray,
-                               PacketRay{}, r.tmin, r.tmax, hit);
-    }
-    scaled.unscale(hit);
+    query<false, true>(wide, bvh, geometry, ray, hit, &counters.primitive_tests);
 }
 
 bool occluded_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray) {

@@ -8,7 +8,6 @@
 
 #include <cmath>
 #include <cstring>
-#include <type_traits>
 
 #include "trace/hit_record.h"
 #include "trace/ray_primitives.h"
@@ -238,11 +237,9 @@ bool query(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const 
     const WideRay wide_ray = make_wide_ray(box_ray);
     const bool found =
         with_primitives(geometry, bvh.prim_ids.data(), triangles, scaled.ray, box_ray, [&](const auto &prims) {
-            if (counters) {
-                using Prims = std::decay_t<decltype(prims)>;
-                return traverse<AnyHit>(wide, bvh, CountedPrimitives<Prims>{prims, &counters->primitive_tests},
-                                        wide_ray, scaled.ray.tmin, scaled.ray.tmax, hit);
-            }
+            if (counters)
+                return traverse<AnyHit>(wide, bvh, count_tests(prims, &counters->primitive_tests), wide_ray,
+                                        scaled.ray.tmin, scaled.ray.tmax, hit);
             return traverse<AnyHit>(wide, bvh, prims, wide_ray, scaled.ray.tmin, scaled.ray.tmax, hit);
         });
     if (!AnyHit) scaled.unscale(hit);
