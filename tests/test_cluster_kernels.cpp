@@ -155,15 +155,25 @@ void check_distance_row_argmin() {
 
 using aacbvh::DistanceKernel;
 
+constexpr DistanceKernel kAllKernels[] = {DistanceKernel::Scalar, DistanceKernel::Sse, DistanceKernel::Avx,
+                                           DistanceKernel::Avx2, DistanceKernel::Avx512};
+
 const char *kernel_name(DistanceKernel k) {
-    return k == DistanceKernel::Scalar ? "scalar" : k == DistanceKernel::Sse ? "sse" : k == DistanceKernel::Avx ? "avx" : "avx2";
+    switch (k) {
+    case DistanceKernel::Scalar: return "scalar";
+    case DistanceKernel::Sse: return "sse";
+    case DistanceKernel::Avx: return "avx";
+    case DistanceKernel::Avx2: return "avx2";
+    case DistanceKernel::Avx512: return "avx512";
+    }
+    return "unknown";
 }
 
 /// Runs check() once with each kernel this CPU has, then restores the default.
 template <class F> void for_each_kernel(F &&check) {
     const DistanceKernel original = aacbvh::distance_kernel();
     int ran = 0;
-    for (DistanceKernel k : {DistanceKernel::Scalar, DistanceKernel::Sse, DistanceKernel::Avx, DistanceKernel::Avx2}) {
+    for (DistanceKernel k : kAllKernels) {
         if (!aacbvh::set_distance_kernel(k)) continue;
         check();
         ++ran;
@@ -194,7 +204,7 @@ struct ColumnBoxes {
 void test_kernels_agree(void **) {
     std::mt19937 rng(31);
     std::printf("kernels on this CPU:");
-    for (DistanceKernel k : {DistanceKernel::Scalar, DistanceKernel::Sse, DistanceKernel::Avx, DistanceKernel::Avx2})
+    for (DistanceKernel k : kAllKernels)
         if (aacbvh::kernel_available(k)) std::printf(" %s", kernel_name(k));
     std::printf("\n");
     const DistanceKernel original = aacbvh::distance_kernel();
@@ -221,7 +231,7 @@ void test_kernels_agree(void **) {
             uint32_t first_nearest = 0;
             float first_best = 0.0f;
             bool have_first = false;
-            for (DistanceKernel k : {DistanceKernel::Scalar, DistanceKernel::Sse, DistanceKernel::Avx, DistanceKernel::Avx2}) {
+            for (DistanceKernel k : kAllKernels) {
                 if (!aacbvh::set_distance_kernel(k)) continue;
                 std::vector<float> row(c.padded), fused(c.padded);
                 float best = 0.0f;
@@ -326,7 +336,7 @@ void test_combine_variants_agree(void **) {
     aacbvh::Scheduler scheduler(1);
     aacbvh::BuildContext ctx(scheduler, nullptr, nullptr);
     for_each_kernel([&] {
-        for (uint32_t count : {2u, 5u, 8u, 9u, 16u, 17u, 24u, 32u, 33u, 40u, 300u}) {
+        for (uint32_t count : {2u, 5u, 8u, 9u, 16u, 17u, 24u, 32u, 33u, 40u, 48u, 49u, 64u, 65u, 300u}) {
             for (uint32_t seed = 1; seed <= (count <= 16 ? 32u : 6u); ++seed) {
                 for (uint32_t target : {1u, 2u, count / 3 + 1, count - 1}) {
                     CombineCase reference(count, seed);

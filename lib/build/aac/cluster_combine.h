@@ -65,9 +65,9 @@ private:
 /// clusters use the calling thread's scratch from the build's `scratch_pool`.
 ///
 /// Three loops give the same merges: a register-sized one for at most
-/// kSmallCombine clusters (kWideSmallCombine with the AVX2 kernel,
-/// build/aac/combine_small.h), one over a cached distance matrix up to
-/// kMatrixCombine (never with the AVX2 kernel), and one that recomputes rows
+/// kSmallCombine clusters (kWideSmallCombine with the AVX2 and AVX-512
+/// kernels, build/aac/combine_small.h), one over a cached distance matrix up
+/// to kMatrixCombine (never with those kernels), and one that recomputes rows
 /// beyond. `variant` picks one for tests (Small beyond its limit runs the
 /// matrix); builds pass Automatic.
 enum class CombineVariant { Automatic, Small, Matrix, Rows };

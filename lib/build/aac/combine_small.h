@@ -1,7 +1,7 @@
-// The small combine's SIMD loop (combine_small_avx2.cpp), for
-// cluster_combine.cpp: up to kWideSmallCombine clusters with rows recomputed
-// in registers instead of a cached matrix; the same merges as the scalar
-// loops.
+// The small combine's SIMD loops (combine_small_avx2.cpp,
+// combine_small_avx512.cpp), for cluster_combine.cpp: up to
+// kWideSmallCombine clusters with rows recomputed in registers instead of a
+// cached matrix; the same merges as the scalar loops.
 #pragma once
 
 #include <cstdint>
@@ -11,7 +11,7 @@
 
 namespace aacbvh {
 
-/// Largest combine the AVX2 loop takes.
+/// Largest combine the AVX2 and AVX-512 loops take.
 constexpr uint32_t kWideSmallCombine = 64;
 
 /// Whether this build of the library has the AVX2 loop (x86-64, GCC or Clang).
@@ -20,5 +20,12 @@ bool combine_small_avx2_compiled();
 /// combine_clusters() for count <= kWideSmallCombine on a CPU with AVX2.
 uint32_t combine_small_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
                             float scale, const FlattenRule &rule, SubtreeChoice *choices);
+
+/// Whether this build of the library has the AVX-512 loop (x86-64, GCC or Clang).
+bool combine_small_avx512_compiled();
+
+/// combine_clusters() for count <= kWideSmallCombine on a CPU with AVX-512F.
+uint32_t combine_small_avx512(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
+                              float scale, const FlattenRule &rule, SubtreeChoice *choices);
 
 } // namespace aacbvh

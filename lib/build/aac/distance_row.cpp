@@ -120,6 +120,65 @@ __attribute__((target("avx"))) uint32_t distance_row_argmin_avx(const BoxColumns
 }
 
 
+// GCC 12's avx512fintrin.h warns of its own self-initialised placeholder
+// operands (`__Y = __Y`) once they are inlined.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#endif
+
+/// distance_row_argmin_avx() with 16 lanes and mask registers: the same
+/// distances (the same operations in the same order), the same candidates
+/// and the same tie rule (each lane keeps the first index at its minimum,
+/// then the lowest index among the lanes holding the row's minimum).
+__attribute__((target("avx512f"))) uint32_t distance_row_argmin_avx512(const BoxColumns &b, uint32_t count,
+                                                                      const float q[6], float scale, float *out,
+                                                                      uint32_t self, float &best) {
+    __m512 lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = _mm512_set1_ps(q[k]);
+        hi[k] = _mm512_set1_ps(q[k + 3]);
+    }
+    const __m512 s = _mm512_set1_ps(scale), inf = _mm512_set1_ps(INFINITY), fmax = _mm512_set1_ps(FLT_MAX);
+    const __m512 self_index = _mm512_set1_ps(float(self)), end = _mm512_set1_ps(float(count));
+    const __m512 sixteen = _mm512_set1_ps(16.0f);
+    __m512 index = _mm512_setr_ps(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    __m512 m = inf, at = _mm512_setzero_ps();
+    uint32_t j = 0;
+    for (; j < count; j += 16, index = _mm512_add_ps(index, sixteen)) {
+        // Rows are padded to a multiple of 8 only: the last block of 16 may
+        // reach 8 lanes past the padding, so it loads and stores under a mask.
+        const uint32_t readable = ((count + 7) & ~7u) - j;
+        const __mmask16 lanes = readable >= 16 ? __mmask16(0xffff) : __mmask16((1u << readable) - 1);
+        __m512 d[3];
+        for (int k = 0; k < 3; ++k)
+            d[k] = _mm512_mul_ps(_mm512_sub_ps(_mm512_max_ps(_mm512_maskz_loadu_ps(lanes, b.hi[k] + j), hi[k]),
+                                               _mm512_min_ps(_mm512_maskz_loadu_ps(lanes, b.lo[k] + j), lo[k])),
+                                 s);
+        __m512 area =
+            _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(d[0], d[1]), _mm512_mul_ps(d[1], d[2])), _mm512_mul_ps(d[2], d[0]));
+        area = _mm512_min_ps(area, fmax);
+        area = _mm512_mask_mov_ps(area, _mm512_cmp_ps_mask(index, self_index, _CMP_EQ_OQ), inf);
+        _mm512_mask_storeu_ps(out + j, lanes, area);
+        const __m512 candidate = _mm512_mask_mov_ps(inf, _mm512_cmp_ps_mask(index, end, _CMP_LT_OQ), area);
+        const __mmask16 less = _mm512_cmp_ps_mask(candidate, m, _CMP_LT_OQ);
+        m = _mm512_min_ps(candidate, m); // = candidate where less, else m
+        at = _mm512_mask_mov_ps(at, less, index);
+    }
+    const float low = _mm512_reduce_min_ps(m);
+    const __mmask16 holding = _mm512_cmp_ps_mask(m, _mm512_set1_ps(low), _CMP_EQ_OQ);
+    // The lowest index among the lanes at the minimum (lanes never at it hold +inf).
+    const float arg = _mm512_mask_reduce_min_ps(holding, at);
+    best = low;
+    return holding ? uint32_t(arg) : 0;
+}
+
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
+
+
 
 /// Minimum of row[0, count) and the first index holding it, in one pass:
 /// each of four lanes keeps its smallest value and where it first saw it
@@ -167,6 +226,7 @@ constexpr uint32_t kFloatIndexLimit = uint32_t(1) << 24;
 DistanceKernel best_kernel() {
 #ifdef AACBVH_X86
     __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx512f") && combine_small_avx512_compiled()) return DistanceKernel::Avx512;
     if (__builtin_cpu_supports("avx2") && combine_small_avx2_compiled()) return DistanceKernel::Avx2;
     return __builtin_cpu_supports("avx") ? DistanceKernel::Avx : DistanceKernel::Sse;
 #else
@@ -187,6 +247,7 @@ bool kernel_available(DistanceKernel kernel) {
     case DistanceKernel::Sse: return true;
     case DistanceKernel::Avx: return best_kernel() >= DistanceKernel::Avx;
     case DistanceKernel::Avx2: return best_kernel() >= DistanceKernel::Avx2;
+    case DistanceKernel::Avx512: return best_kernel() >= DistanceKernel::Avx512;
 #endif
     default: return false;
     }
@@ -208,6 +269,8 @@ uint32_t argmin_row(const float *row, uint32_t count, float &best) {
 uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out,
                              uint32_t self, float &best) {
 #ifdef AACBVH_X86
+    if (distance_kernel() == DistanceKernel::Avx512 && count < kFloatIndexLimit)
+        return distance_row_argmin_avx512(boxes, count, query, scale, out, self, best);
     if (distance_kernel() >= DistanceKernel::Avx && count < kFloatIndexLimit)
         return distance_row_argmin_avx(boxes, count, query, scale, out, self, best);
 #endif
@@ -220,7 +283,8 @@ void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6],
     switch (distance_kernel()) {
 #ifdef AACBVH_X86
     case DistanceKernel::Avx:
-    case DistanceKernel::Avx2: distance_row_avx(boxes, count, query, scale, out); return;
+    case DistanceKernel::Avx2:
+    case DistanceKernel::Avx512: distance_row_avx(boxes, count, query, scale, out); return;
     case DistanceKernel::Sse: distance_row_sse(boxes, count, query, scale, out); return;
 #endif
     default: distance_row_scalar(boxes, count, query, scale, out); return;

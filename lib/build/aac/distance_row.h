@@ -33,12 +33,13 @@ uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const floa
 /// with its value in `best`; count >= 1. Reads only row[0, count).
 uint32_t argmin_row(const float *row, uint32_t count, float &best);
 
-/// The kernels: chosen once from the CPU (AVX2 where it has it, else AVX,
-/// else SSE on x86-64, else plain C++); all give bit-identical results. Tests
-/// force each in turn (set_distance_kernel, not thread-safe: never during a
-/// build). Avx2 rows are the Avx ones; it adds the small combines' AVX2 loop
-/// (build/aac/combine_small.h).
-enum class DistanceKernel { Scalar, Sse, Avx, Avx2 };
+/// The kernels: chosen once from the CPU (AVX-512F where it has it, else
+/// AVX2, else AVX, else SSE on x86-64, else plain C++); all give bit-identical
+/// results. Tests force each in turn (set_distance_kernel, not thread-safe:
+/// never during a build). Avx2 rows are the Avx ones; it adds the small
+/// combines' AVX2 loop (build/aac/combine_small.h). Avx512 adds the small
+/// combines' AVX-512 loop and rows of 16 lanes.
+enum class DistanceKernel { Scalar, Sse, Avx, Avx2, Avx512 };
 DistanceKernel distance_kernel();
 /// Whether this build and CPU can run `kernel`.
 bool kernel_available(DistanceKernel kernel);

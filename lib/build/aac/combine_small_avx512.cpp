@@ -1,0 +1,216 @@
+// The greedy loop of a small combine (build/aac/cluster_combine.h) in
+// AVX-512: the AVX2 loop (combine_small_avx2.cpp) with 16 lanes a register
+// and mask registers for the per-lane choices, so a row of up to 64 clusters
+// is at most four registers. Same distances bit for bit (the operations of
+// scaled_union_half_area in the same order; the library is compiled with
+// -ffp-contract=off, so no FMA) and the same tie rules as the scalar loop, so
+// the same merges. Compiled for AVX-512F only inside the target region below
+// and called only on CPUs that have it (cluster_combine.cpp).
+#include "build/aac/combine_small.h"
+
+#include <cfloat>
+#include <cmath>
+#include <utility>
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+
+// Everything defined from here to the end of the region is compiled for
+// AVX-512F; the headers above stay baseline code.
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx512f"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx512f")
+// GCC 12's avx512fintrin.h warns of its own self-initialised placeholder
+// operands (`__Y = __Y`) once they are inlined here.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#endif
+
+namespace aacbvh {
+namespace {
+
+/// Up to 16 * kVectors clusters, kVectors registers per row.
+template <int kVectors> struct SmallCombine512 {
+    static constexpr uint32_t kLanes = 16 * kVectors;
+    alignas(64) float col[6][kLanes]; ///< lo x, y, z, hi x, y, z of each live cluster
+    alignas(64) float nd[kLanes];     ///< distance to the nearest neighbour
+    alignas(64) int32_t nn[kLanes];   ///< the nearest neighbour's slot
+    alignas(64) float row[kLanes];    ///< the last row computed
+    Box box[kLanes];
+    __m512 scale;
+
+    void set(uint32_t i, const Box &b) {
+        box[i] = b;
+        for (int k = 0; k < 3; ++k) {
+            col[k][i] = b.lo[k];
+            col[k + 3][i] = b.hi[k];
+        }
+    }
+
+    /// Bit j set for the live slots j < live other than `except`.
+    static uint64_t live_bits(uint32_t live, uint32_t except) {
+        const uint64_t below = live >= 64 ? ~uint64_t(0) : (uint64_t(1) << live) - 1;
+        return below & ~(uint64_t(1) << except);
+    }
+
+    /// d(i, j) for every lane j into `row`: +inf where j == i or j >= live.
+    /// Returns the smallest entry's slot (the lowest on ties) and its value.
+    uint32_t nearest(uint32_t i, uint32_t live, float &best) {
+        __m512 q[6];
+        for (int k = 0; k < 6; ++k) q[k] = _mm512_set1_ps(col[k][i]);
+        const __m512 inf = _mm512_set1_ps(INFINITY), fmax = _mm512_set1_ps(FLT_MAX);
+        const uint64_t valid = live_bits(live, i);
+        __m512 m = inf;
+        __m512 r[kVectors];
+        for (int v = 0; v < kVectors; ++v) {
+            __m512 d[3];
+            for (int k = 0; k < 3; ++k)
+                d[k] = _mm512_mul_ps(_mm512_sub_ps(_mm512_max_ps(_mm512_load_ps(col[k + 3] + 16 * v), q[k + 3]),
+                                                   _mm512_min_ps(_mm512_load_ps(col[k] + 16 * v), q[k])),
+                                     scale);
+            __m512 area = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(d[0], d[1]), _mm512_mul_ps(d[1], d[2])),
+                                        _mm512_mul_ps(d[2], d[0]));
+            area = _mm512_min_ps(area, fmax); // NaN and overflow: FLT_MAX, as the scalar clamp
+            r[v] = _mm512_mask_blend_ps(__mmask16(valid >> (16 * v)), inf, area);
+            _mm512_store_ps(row + 16 * v, r[v]);
+            m = _mm512_min_ps(m, r[v]);
+        }
+        return first_equal(r, m, best);
+    }
+
+    /// The lowest lane of r holding the minimum of the lane-wise minima m.
+    static uint32_t first_equal(const __m512 *r, __m512 m, float &best) {
+        const __m512 low = _mm512_set1_ps(_mm512_reduce_min_ps(m));
+        uint64_t mask = 0;
+        for (int v = 0; v < kVectors; ++v)
+            mask |= uint64_t(_mm512_cmp_ps_mask(r[v], low, _CMP_EQ_OQ)) << (16 * v);
+        best = _mm512_cvtss_f32(low);
+        return uint32_t(__builtin_ctzll(mask)); // a row always has a finite entry (live >= 2)
+    }
+
+    /// The smallest nd among the live slots (lanes past live hold +inf).
+    uint32_t closest_pair() const {
+        __m512 r[kVectors];
+        __m512 m = _mm512_set1_ps(INFINITY);
+        for (int v = 0; v < kVectors; ++v) {
+            r[v] = _mm512_load_ps(nd + 16 * v);
+            m = _mm512_min_ps(m, r[v]);
+        }
+        float ignored;
+        return first_equal(r, m, ignored);
+    }
+
+    /// After merging a and b (a < b) into slot a and moving slot `last` to b,
+    /// with `row` = d(a, .): the slots whose nearest neighbour was a or b search
+    /// again; the others follow a partner moved from last to b and take a when
+    /// it is closer (or as close with a lower slot). The scalar loop's rules.
+    void update(uint32_t a, uint32_t b, uint32_t last, uint32_t live) {
+        const __m512i va = _mm512_set1_epi32(int(a)), vb = _mm512_set1_epi32(int(b)),
+                      vlast = _mm512_set1_epi32(int(last));
+        const uint64_t live_lanes = live_bits(live, a);
+        uint64_t again_bits = 0;
+        for (int v = 0; v < kVectors; ++v) {
+            const __mmask16 lane_live = __mmask16(live_lanes >> (16 * v));
+            __m512i p = _mm512_load_si512(nn + 16 * v);
+            const __mmask16 again =
+                lane_live & (_mm512_cmpeq_epi32_mask(p, va) | _mm512_cmpeq_epi32_mask(p, vb));
+            p = _mm512_mask_mov_epi32(p, _mm512_cmpeq_epi32_mask(p, vlast), vb);
+            const __m512 d = _mm512_load_ps(row + 16 * v), n = _mm512_load_ps(nd + 16 * v);
+            const __mmask16 closer = _mm512_cmp_ps_mask(d, n, _CMP_LT_OQ) |
+                                     (_mm512_cmp_ps_mask(d, n, _CMP_EQ_OQ) & _mm512_cmpgt_epi32_mask(p, va));
+            const __mmask16 take = closer & lane_live & __mmask16(~again);
+            p = _mm512_mask_mov_epi32(p, take, va);
+            _mm512_store_si512(nn + 16 * v, p);
+            _mm512_store_ps(nd + 16 * v, _mm512_mask_mov_ps(n, take, d));
+            again_bits |= uint64_t(again) << (16 * v);
+        }
+        for (; again_bits; again_bits &= again_bits - 1) {
+            const uint32_t j = uint32_t(__builtin_ctzll(again_bits));
+            nn[j] = int32_t(nearest(j, live, nd[j]));
+        }
+    }
+};
+
+template <int kVectors>
+uint32_t run(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target, float scale,
+             const FlattenRule &rule, SubtreeChoice *choices) {
+    const uint32_t n = tree.leaf_count();
+    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
+    SmallCombine512<kVectors> s;
+    s.scale = _mm512_set1_ps(scale);
+    for (uint32_t i = 0; i < count; ++i) s.set(i, tree.boxes[ids[i]]);
+    for (uint32_t i = count; i < s.kLanes; ++i) {
+        s.set(i, s.box[0]); // harmless padding lanes
+        s.nd[i] = INFINITY;
+        s.nn[i] = 0;
+    }
+    for (uint32_t i = 0; i < count; ++i) s.nn[i] = int32_t(s.nearest(i, count, s.nd[i]));
+
+    uint32_t live = count, used = 0;
+    while (live > target) {
+        uint32_t a = s.closest_pair();
+        uint32_t b = uint32_t(s.nn[a]);
+        if (a > b) std::swap(a, b);
+
+        const uint32_t node = free_ids[used++];
+        const Box merged = unite(s.box[a], s.box[b]);
+        tree.boxes[node] = merged;
+        tree.set_children(node, ids[a], ids[b]);
+        choices[node - n] = rule.inner(merged, choice(ids[a]), choice(ids[b]));
+
+        const uint32_t last = live - 1;
+        if (b != last) {
+            s.set(b, s.box[last]);
+            ids[b] = ids[last];
+            s.nd[b] = s.nd[last];
+            s.nn[b] = s.nn[last];
+        }
+        s.nd[last] = INFINITY; // no longer live
+        live = last;
+        s.set(a, merged);
+        ids[a] = node;
+        float best;
+        const uint32_t nearest_a = s.nearest(a, live, best); // fills row = d(a, .)
+        s.update(a, b, last, live);
+        s.nn[a] = int32_t(nearest_a);
+        s.nd[a] = best;
+    }
+    for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
+    return live;
+}
+
+} // namespace
+
+bool combine_small_avx512_compiled() { return true; }
+
+uint32_t combine_small_avx512(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
+                              float scale, const FlattenRule &rule, SubtreeChoice *choices) {
+    if (count <= 16) return run<1>(tree, ids, free_ids, count, target, scale, rule, choices);
+    if (count <= 32) return run<2>(tree, ids, free_ids, count, target, scale, rule, choices);
+    if (count <= 48) return run<3>(tree, ids, free_ids, count, target, scale, rule, choices);
+    return run<4>(tree, ids, free_ids, count, target, scale, rule, choices);
+}
+
+} // namespace aacbvh
+
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC diagnostic pop
+#pragma GCC pop_options
+#endif
+
+#else // not x86-64 with GCC or Clang: never called (combine_small_avx512_compiled() is false)
+
+namespace aacbvh {
+bool combine_small_avx512_compiled() { return false; }
+uint32_t combine_small_avx512(BinaryTree &, uint32_t *, uint32_t *, uint32_t count, uint32_t, float,
+                              const FlattenRule &, SubtreeChoice *) {
+    return count;
+}
+} // namespace aacbvh
+
+#endif
