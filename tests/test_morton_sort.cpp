@@ -17,6 +17,7 @@ extern "C" {
 #include <vector>
 
 #include "build/morton.h"
+#include "build/radix_sort.h"
 
 namespace {
 
@@ -112,6 +113,51 @@ void test_close_pairs(void **) {
     for (unsigned threads : {1u, 2u}) check_sorted(boxes, threads);
 }
 
+/// Many cells, each holding hundreds to thousands of centroids (as the chairs
+/// of conference do): runs long enough for the sort's byte-wise pass, with
+/// duplicates inside them and neighbouring cells' runs side by side.
+void test_many_long_runs(void **) {
+    std::mt19937 rng(23);
+    std::uniform_real_distribution<float> u(-1000.0f, 1000.0f), tiny(0.0f, 0.05f);
+    std::vector<Box> boxes;
+    for (int cell = 0; cell < 40; ++cell) {
+        const float x = u(rng), y = u(rng), z = u(rng);
+        const int count = 100 + int(rng() % 3000);
+        for (int i = 0; i < count; ++i) {
+            if (i % 11 == 0)
+                boxes.push_back(point_box(x, y, z)); // duplicates
+            else
+                boxes.push_back(point_box(x + tiny(rng), y + tiny(rng), z + tiny(rng)));
+        }
+    }
+    std::shuffle(boxes.begin(), boxes.end(), rng);
+    for (unsigned threads : {1u, 3u}) check_sorted(boxes, threads);
+}
+
+/// radix_sort_high_halves() against std::stable_sort by high halves: random
+/// values, values that share all but one byte of their high halves, few
+/// distinct high halves (stability decides), every value equal, and sizes
+/// around the one-byte-for-all skip.
+void test_sort_by_high_halves(void **) {
+    std::mt19937_64 rng(3);
+    for (size_t n : {size_t(1), size_t(2), size_t(255), size_t(256), size_t(300), size_t(5000), size_t(100000)}) {
+        for (int pattern = 0; pattern < 5; ++pattern) {
+            std::vector<uint64_t> v(n);
+            for (auto &x : v) {
+                x = rng();
+                if (pattern == 1) x = 0x1234567800000000ull | (x & 0xFF0000FFFFFFFFull);
+                if (pattern == 2) x = (x % 5) << 32 | (x & 0xFFFFFFFF);
+                if (pattern == 3) x = 0x42;
+                if (pattern == 4) x = (x & 0x7FFFFFFF00000000ull) | (x % 64); // morton.cpp's values
+            }
+            std::vector<uint64_t> want = v, scratch(n);
+            std::stable_sort(want.begin(), want.end(), [](uint64_t a, uint64_t b) { return a >> 32 < b >> 32; });
+            aacbvh::radix_sort_high_halves(v.data(), scratch.data(), v.size());
+            if (v != want) fail_msg("%zu values, pattern %d: not the stable order of the high halves", n, pattern);
+        }
+    }
+}
+
 /// Every code equal: the input order.
 void test_all_equal(void **) {
     std::vector<Box> boxes(5000, point_box(3.0f, 3.0f, 3.0f));
@@ -126,6 +172,8 @@ int main() {
         cmocka_unit_test(test_runs_of_equal_high_bits),
         cmocka_unit_test(test_close_pairs),
         cmocka_unit_test(test_all_equal),
+        cmocka_unit_test(test_many_long_runs),
+        cmocka_unit_test(test_sort_by_high_halves),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }

@@ -1,6 +1,7 @@
 #include "build/morton.h"
 
 #include <algorithm>
+#include <atomic>
 
 #include "build/radix_sort.h"
 
@@ -29,17 +30,40 @@ void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<ui
         }
     });
     radix_sort_pairs(high, low_index, 63 - kLowBits, scheduler);
-    // A run of equal high halves is sorted by the chunk it starts in.
-    scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
+    // A run of equal high halves is sorted by the chunk it starts in: short
+    // runs by std::sort; long ones (most of conference's primitives lie in
+    // runs of 512 and more) by bytes instead of comparisons, in a second pass
+    // with scratch memory (docs/PERFORMANCE.md, change 82). A run's values
+    // are in index order, so a stable sort by the low code bits in their
+    // high halves is the sort by whole values.
+    constexpr size_t kRadixRun = 256;
+    auto for_each_run = [&high, n](size_t b, size_t e, auto &&sort_run) {
         size_t i = b;
         while (i > 0 && i < e && high[i] == high[i - 1]) ++i;
         while (i < e) {
             size_t j = i + 1;
             while (j < n && high[j] == high[i]) ++j;
-            if (j - i > 1) std::sort(&low_index[i], &low_index[i] + (j - i));
+            if (j - i > 1) sort_run(i, j - i);
             i = j;
         }
+    };
+    std::atomic<bool> long_runs{false};
+    scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
+        for_each_run(b, e, [&](size_t first, size_t length) {
+            if (length >= kRadixRun)
+                long_runs.store(true, std::memory_order_relaxed);
+            else
+                std::sort(&low_index[first], &low_index[first] + length);
+        });
     });
+    if (long_runs.load()) {
+        Array<uint64_t> scratch(n); // each run uses its own range of it
+        scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
+            for_each_run(b, e, [&](size_t first, size_t length) {
+                if (length >= kRadixRun) radix_sort_high_halves(&low_index[first], &scratch[first], length);
+            });
+        });
+    }
     // Unpacked in place: the high halves' array becomes the order, the
     // values' array the codes.
     scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {

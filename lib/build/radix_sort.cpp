@@ -75,4 +75,30 @@ void radix_sort_pairs(Array<uint32_t> &keys, Array<uint64_t> &values, unsigned k
     sort_pairs(keys, values, key_bits, scheduler);
 }
 
+void radix_sort_high_halves(uint64_t *values, uint64_t *scratch, size_t count) {
+    uint32_t histogram[4][256] = {};
+    for (size_t i = 0; i < count; ++i) {
+        const uint64_t v = values[i];
+        for (int d = 0; d < 4; ++d) ++histogram[d][(v >> (32 + 8 * d)) & 255];
+    }
+    uint64_t *from = values, *to = scratch;
+    for (int d = 0; d < 4; ++d) {
+        const unsigned shift = 32 + 8 * unsigned(d);
+        uint32_t *h = histogram[d];
+        if (h[(from[0] >> shift) & 255] == count) continue; // one byte for all
+        uint32_t sum = 0;
+        for (unsigned b = 0; b < 256; ++b) {
+            const uint32_t c = h[b];
+            h[b] = sum;
+            sum += c;
+        }
+        for (size_t i = 0; i < count; ++i) {
+            const uint64_t v = from[i];
+            to[h[(v >> shift) & 255]++] = v;
+        }
+        std::swap(from, to);
+    }
+    if (from != values) std::copy(from, from + count, values);
+}
+
 } // namespace aacbvh
