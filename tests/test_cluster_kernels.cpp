@@ -206,7 +206,7 @@ void test_kernels_agree(void **) {
     std::printf("kernels on this CPU:");
     for (DistanceKernel k : kAllKernels)
         if (aacbvh::kernel_available(k)) std::printf(" %s", kernel_name(k));
-    std::printf("\n");
+    std::printf(" (in use: %s)\n", kernel_name(aacbvh::distance_kernel()));
     const DistanceKernel original = aacbvh::distance_kernel();
     for (uint32_t count : {1u, 3u, 8u, 13u, 64u, 257u}) {
         for (int trial = 0; trial < 30; ++trial) {

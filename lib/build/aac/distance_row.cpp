@@ -9,6 +9,7 @@
 #include "core/box.h"
 
 #if defined(__x86_64__) || defined(__i386__)
+#include <cpuid.h>
 #include <immintrin.h>
 #define AACBVH_X86 1
 #endif
@@ -223,6 +224,7 @@ uint32_t argmin_row_sse(const float *row, uint32_t count, float &best) {
 /// Indices are tracked in float lanes by the fused AVX kernel: exact below 2^24.
 constexpr uint32_t kFloatIndexLimit = uint32_t(1) << 24;
 
+/// The most capable kernel this build and CPU can run.
 DistanceKernel best_kernel() {
 #ifdef AACBVH_X86
     __builtin_cpu_init();
@@ -234,7 +236,32 @@ DistanceKernel best_kernel() {
 #endif
 }
 
-std::atomic<DistanceKernel> g_kernel{best_kernel()};
+/// Whether the AVX-512 combines pay on this CPU: measured faster on an AMD
+/// Zen 5 (family 1Ah: AAC-HQ 3-8 % faster, AAC-Fast unchanged,
+/// docs/PERFORMANCE.md row 81), not on an Intel Xeon (Sapphire Rapids: no
+/// gain for AAC-HQ, AAC-Fast 4 % slower, row 53). Other CPUs keep AVX2 until
+/// measured; tests force AVX-512 on any CPU that has it.
+bool avx512_pays() {
+#if defined(AACBVH_X86) && (defined(__GNUC__) || defined(__clang__))
+    unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
+    if (!__get_cpuid(0, &eax, &ebx, &ecx, &edx)) return false;
+    const bool amd = ebx == 0x68747541u && edx == 0x69746e65u && ecx == 0x444d4163u; // "AuthenticAMD"
+    if (!amd || !__get_cpuid(1, &eax, &ebx, &ecx, &edx)) return false;
+    unsigned family = (eax >> 8) & 0xFu;
+    if (family == 0xFu) family += (eax >> 20) & 0xFFu;
+    return family >= 0x1Au;
+#else
+    return false;
+#endif
+}
+
+/// The kernel builds use unless a test forces another.
+DistanceKernel default_kernel() {
+    const DistanceKernel best = best_kernel();
+    return best == DistanceKernel::Avx512 && !avx512_pays() ? DistanceKernel::Avx2 : best;
+}
+
+std::atomic<DistanceKernel> g_kernel{default_kernel()};
 
 } // namespace
 

@@ -33,9 +33,9 @@ uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const floa
 /// with its value in `best`; count >= 1. Reads only row[0, count).
 uint32_t argmin_row(const float *row, uint32_t count, float &best);
 
-/// The kernels: chosen once from the CPU (AVX-512F where it has it, else
-/// AVX2, else AVX, else SSE on x86-64, else plain C++); all give bit-identical
-/// results. Tests force each in turn (set_distance_kernel, not thread-safe:
+/// The kernels: chosen once from the CPU (AVX-512F where it has it and it
+/// was measured to pay, else AVX2, else AVX, else SSE on x86-64, else plain
+/// C++); all give bit-identical results. Tests force each in turn (set_distance_kernel, not thread-safe:
 /// never during a build). Avx2 rows are the Avx ones; it adds the small
 /// combines' AVX2 loop (build/aac/combine_small.h). Avx512 adds the small
 /// combines' AVX-512 loop and rows of 16 lanes.
