@@ -129,52 +129,14 @@ template <int kVectors> struct SmallCombine {
     }
 };
 
+#include "build/aac/combine_small_loop.inl"
+
 template <int kVectors>
 uint32_t run(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target, float scale,
              const FlattenRule &rule, SubtreeChoice *choices) {
-    const uint32_t n = tree.leaf_count();
-    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
     SmallCombine<kVectors> s;
     s.scale = _mm256_set1_ps(scale);
-    for (uint32_t i = 0; i < count; ++i) s.set(i, tree.boxes[ids[i]]);
-    for (uint32_t i = count; i < s.kLanes; ++i) {
-        s.set(i, s.box[0]); // harmless padding lanes
-        s.nd[i] = INFINITY;
-        s.nn[i] = 0;
-    }
-    for (uint32_t i = 0; i < count; ++i) s.nn[i] = int32_t(s.nearest(i, count, s.nd[i]));
-
-    uint32_t live = count, used = 0;
-    while (live > target) {
-        uint32_t a = s.closest_pair();
-        uint32_t b = uint32_t(s.nn[a]);
-        if (a > b) std::swap(a, b);
-
-        const uint32_t node = free_ids[used++];
-        const Box merged = unite(s.box[a], s.box[b]);
-        tree.boxes[node] = merged;
-        tree.set_children(node, ids[a], ids[b]);
-        choices[node - n] = rule.inner(merged, choice(ids[a]), choice(ids[b]));
-
-        const uint32_t last = live - 1;
-        if (b != last) {
-            s.set(b, s.box[last]);
-            ids[b] = ids[last];
-            s.nd[b] = s.nd[last];
-            s.nn[b] = s.nn[last];
-        }
-        s.nd[last] = INFINITY; // no longer live
-        live = last;
-        s.set(a, merged);
-        ids[a] = node;
-        float best;
-        const uint32_t nearest_a = s.nearest(a, live, best); // fills row = d(a, .)
-        s.update(a, b, last, live);
-        s.nn[a] = int32_t(nearest_a);
-        s.nd[a] = best;
-    }
-    for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
-    return live;
+    return greedy_loop(s, tree, ids, free_ids, count, target, rule, choices);
 }
 
 } // namespace

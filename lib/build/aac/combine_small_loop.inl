@@ -1,0 +1,66 @@
+// The greedy loop of the SIMD small combines, included by each kernel's file
+// (combine_small_avx2.cpp, combine_small_avx512.cpp) inside its own target
+// region, after it has defined its register state S:
+//   S::kLanes; float nd[]; int32_t nn[]; Box box[];
+//   void set(uint32_t slot, const Box &);
+//   uint32_t nearest(uint32_t slot, uint32_t live, float &best);
+//     fills its row with d(slot, .) and returns the nearest other slot (the
+//     lowest on ties);
+//   uint32_t closest_pair() const;  the lowest slot whose nd is the smallest;
+//   void update(uint32_t a, uint32_t b, uint32_t last, uint32_t live);
+//     the nearest-neighbour bookkeeping after a merge, with the row = d(a, .).
+// The merges are those of the scalar loop (build/aac/cluster_combine.cpp).
+// No lambdas here: a target region does not reach into them.
+
+/// The inner-node choice of cluster `id` (a leaf's, or its merge's).
+inline SubtreeChoice cluster_choice(const BinaryTree &tree, const FlattenRule &rule, const SubtreeChoice *choices,
+                                    uint32_t id) {
+    const uint32_t n = tree.leaf_count();
+    return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n];
+}
+
+template <class S>
+uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
+                     const FlattenRule &rule, SubtreeChoice *choices) {
+    const uint32_t n = tree.leaf_count();
+    for (uint32_t i = 0; i < count; ++i) s.set(i, tree.boxes[ids[i]]);
+    for (uint32_t i = count; i < S::kLanes; ++i) {
+        s.set(i, s.box[0]); // harmless padding lanes
+        s.nd[i] = INFINITY;
+        s.nn[i] = 0;
+    }
+    for (uint32_t i = 0; i < count; ++i) s.nn[i] = int32_t(s.nearest(i, count, s.nd[i]));
+
+    uint32_t live = count, used = 0;
+    while (live > target) {
+        uint32_t a = s.closest_pair();
+        uint32_t b = uint32_t(s.nn[a]);
+        if (a > b) std::swap(a, b);
+
+        const uint32_t node = free_ids[used++];
+        const Box merged = unite(s.box[a], s.box[b]);
+        tree.boxes[node] = merged;
+        tree.set_children(node, ids[a], ids[b]);
+        choices[node - n] = rule.inner(merged, cluster_choice(tree, rule, choices, ids[a]),
+                                       cluster_choice(tree, rule, choices, ids[b]));
+
+        const uint32_t last = live - 1;
+        if (b != last) {
+            s.set(b, s.box[last]);
+            ids[b] = ids[last];
+            s.nd[b] = s.nd[last];
+            s.nn[b] = s.nn[last];
+        }
+        s.nd[last] = INFINITY; // no longer live
+        live = last;
+        s.set(a, merged);
+        ids[a] = node;
+        float best;
+        const uint32_t nearest_a = s.nearest(a, live, best); // fills the row with d(a, .)
+        s.update(a, b, last, live);
+        s.nn[a] = int32_t(nearest_a);
+        s.nd[a] = best;
+    }
+    for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
+    return live;
+}
