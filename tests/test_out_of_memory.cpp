@@ -132,12 +132,12 @@ void expect_ok_or_oom(aacbvh_status s, const aacbvh_bvh *bvh, const char *what, 
 /// The k loop: `setup` (unarmed) makes the state, `call` runs armed,
 /// `check(status)` (unarmed) inspects the result, `teardown` (unarmed)
 /// releases it. Every iteration must leave no block behind. Every allocation
-/// fails in turn; under ThreadSanitizer (10-15 times slower) every third:
+/// fails in turn; under ThreadSanitizer (10-15 times slower) every sixth:
 /// most cases run one thread, where it has no race to find, and the Release
 /// and AddressSanitizer stages fail every allocation.
 template <class Setup, class Call, class Check, class Teardown>
 void for_each_failure(const char *what, Setup &&setup, Call &&call, Check &&check, Teardown &&teardown) {
-    const int64_t limit = 200000, stride = TS_UNDER_TSAN ? 3 : 1;
+    const int64_t limit = 200000, stride = TS_UNDER_TSAN ? 6 : 1;
     for (int64_t k = 1; k < limit; k += stride) {
         const int64_t live_before = g_live_blocks.load();
         setup();
@@ -152,7 +152,7 @@ void for_each_failure(const char *what, Setup &&setup, Call &&call, Check &&chec
         if (!reached) {
             if (s != AACBVH_OK) fail_msg("%s: fails without an injected failure: %s", what, aacbvh_status_string(s));
             std::printf("%-34s %6lld allocation points%s\n", what, (long long)(k - 1),
-                        stride > 1 ? " (at most; every third failed)" : "");
+                        stride > 1 ? " (at most; every sixth failed)" : "");
             g_points += size_t(k - 1);
             return;
         }
