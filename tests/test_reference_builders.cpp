@@ -21,6 +21,7 @@ extern "C" {
 
 #include "build/aac/aac_builder.h"
 #include "build/reference/reference_builders.h"
+#include "test_support.h" // TS_UNDER_SANITIZER
 
 using namespace aacbvh;
 
@@ -166,8 +167,14 @@ void test_clustered_points(void **) {
 }
 
 void test_identical_boxes(void **) {
-    for (const NamedBuilder &b : kBuilders)
-        for (uint32_t n : {1u, 2u, 3u, 1000u, 20000u}) build_and_check(b, identical_boxes(n));
+    for (const NamedBuilder &b : kBuilders) {
+        // Exact clustering of identical boxes grows about as n^1.75: 20,000
+        // took 15 s under ThreadSanitizer (on one thread: no race to find) and
+        // 7 s under AddressSanitizer. Under a sanitizer the locally-ordered
+        // builder gets 5,000; the Release stage runs 20,000.
+        const uint32_t largest = TS_UNDER_SANITIZER && &b == &kBuilders[2] ? 5000u : 20000u;
+        for (uint32_t n : {1u, 2u, 3u, 1000u, largest}) build_and_check(b, identical_boxes(n));
+    }
 }
 
 /// Depth of the tree (edges on the longest root-to-leaf path).
