@@ -100,6 +100,10 @@ static void check_scene(const char *name, const ts_mesh *m, size_t ray_count) {
             aacbvh_context *ctx;
             aacbvh_bvh *bvh;
             char msg[256];
+            /* Under ThreadSanitizer one leaf size per builder, in turn (every
+             * builder and both sizes still run): these scenes are below the
+             * builds' task grains, only the queries run in tasks there. */
+            if (TS_UNDER_TSAN && leaf != (b % 2 ? 4 : 1)) continue;
             ts_create(2, &ctx, &bvh);
             TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, k_builders[b]), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_MAX_LEAF_SIZE, leaf), AACBVH_OK);
