@@ -98,8 +98,15 @@ if(NOT AACBVH_SANITIZE)
     COMMAND sh ${CMAKE_CURRENT_SOURCE_DIR}/minimal_build_test.sh
             ${PROJECT_SOURCE_DIR} ${PROJECT_BINARY_DIR} ${CMAKE_COMMAND}
             ${CMAKE_C_COMPILER} ${CMAKE_CXX_COMPILER})
+  # One at a time (each builds or installs with every core), and first: a
+  # fresh build directory has no timings for ctest to order by, and these
+  # three, started after the unit tests, ran alone at the end of the stage.
+  # COST (about their seconds on the 2-core CI machine) starts them first.
   set_tests_properties(install_relocated install_absolute_libdir build_without_test_deps PROPERTIES
     TIMEOUT 900 RESOURCE_LOCK aacbvh_install)
+  set_tests_properties(build_without_test_deps PROPERTIES COST 50)
+  set_tests_properties(install_absolute_libdir PROPERTIES COST 30)
+  set_tests_properties(install_relocated PROPERTIES COST 5)
 endif()
 
 # ---- ABI against the committed baseline (libabigail), Python ctypes binding ----
