@@ -1,8 +1,9 @@
 /* Builds started from a progress callback, as game engines do from job
  * callbacks: the callback builds, queries, refits and destroys another BVH,
  * on another context or on the building one, on its first call or on every
- * call (in every phase under ThreadSanitizer, see run_all). The outer build must come out exactly as it does without nesting
- * (same nodes, same primitive order), for every builder, and so must the
+ * call (in every phase under ThreadSanitizer, see run_all). The outer build
+ * must come out exactly as it does without nesting (same nodes, same
+ * primitive order), for every builder, and so must the
  * nested ones. A large single combine (AAC with delta 2^20) polls from inside
  * the combine, where the scratch memory is in use. Calls on the building
  * handle itself from its own callback are refused with
