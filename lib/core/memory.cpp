@@ -33,6 +33,14 @@ void *allocate_system_block(size_t rounded_bytes) {
 #ifdef MADV_HUGEPAGE
     madvise(p, rounded_bytes, MADV_HUGEPAGE); // advice only: failure is harmless
 #endif
+#ifdef MADV_POPULATE_WRITE
+    // Every page of a build array is written soon, so map them all now, in
+    // one call, instead of one page fault each: on a virtual machine a fault
+    // costs microseconds beyond the page's clearing (docs/PERFORMANCE.md,
+    // change 86). Kernels before 5.14 refuse the advice; the pages then fault
+    // in as before.
+    madvise(p, rounded_bytes, MADV_POPULATE_WRITE);
+#endif
     testing::count_system_block(int64_t(rounded_bytes));
     return p;
 }

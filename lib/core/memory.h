@@ -5,7 +5,8 @@
 // time (expensive under virtualisation). Array<T> leaves trivially constructible
 // elements uninitialised on resize, and blocks of 2 MiB and more are 2 MiB
 // aligned and marked for transparent huge pages (one fault per 2 MiB instead
-// of per 4 KiB), as Embree does for its build memory.
+// of per 4 KiB), as Embree does for its build memory, and their pages are
+// mapped when the block is (one call instead of a fault for each).
 //
 // With a BlockCache installed on the thread (core/block_cache.h), big blocks
 // are taken from it (a kept block of about the size asked for, else the front
@@ -118,7 +119,8 @@ constexpr size_t round_to_block(size_t bytes) { return (bytes + kPageBytes - 1) 
 inline bool over_aligned(size_t align) { return align > __STDCPP_DEFAULT_NEW_ALIGNMENT__; }
 
 /// A big block straight from the system: `rounded_bytes` (a multiple of
-/// the page size) mapped at a 2 MiB boundary, advised for huge pages. Mapped exactly,
+/// the page size) mapped at a 2 MiB boundary, advised for huge pages, its
+/// pages mapped at once (MADV_POPULATE_WRITE, where the kernel has it). Mapped exactly,
 /// so the handle's stats can count every byte of it: aligned_alloc() would
 /// map up to 2 MiB more per block for the alignment, unseen by the stats.
 /// Throws std::bad_alloc.
