@@ -1,8 +1,8 @@
 // Unit tests of the kept build memory (lib/core/block_cache.h) and of its use by a
 // BVH handle (lib/bvh_object.h, AACBVH_PARAM_KEEP_BUILD_MEMORY): which block a
 // request gets, what a build keeps and frees, and that the setting's memory
-// goes away when it is switched off; and that the 4-wide tree is counted as
-// build memory.
+// goes away when it is switched off; that the 4-wide tree is counted as
+// build memory; and that a big block's pages are mapped when it is.
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -16,6 +16,7 @@ extern "C" {
 #include <cstring>
 #include <new>
 #include <random>
+#include <sys/mman.h>
 #include <vector>
 
 #include "bvh/wide_bvh.h"
@@ -334,6 +335,33 @@ void test_wide_tree_is_metered(void **) {
     assert_int_equal(reinterpret_cast<uintptr_t>(wide.nodes()) % alignof(aacbvh::WideNode), 0);
 }
 
+/// A big block's pages are mapped when the block is (MADV_POPULATE_WRITE,
+/// core/memory.cpp) where the kernel can: whether it can is probed on a
+/// mapping of the test's own; then every page of a library block must be
+/// resident before anything touches it (mincore), and none where the kernel
+/// cannot.
+void test_blocks_are_mapped_at_once(void **) {
+    const size_t page = aacbvh::kPageBytes;
+    bool kernel_populates = false;
+#ifdef MADV_POPULATE_WRITE
+    void *probe = mmap(nullptr, 4 * page, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    assert_true(probe != MAP_FAILED);
+    kernel_populates = madvise(probe, 4 * page, MADV_POPULATE_WRITE) == 0;
+    munmap(probe, 4 * page);
+#endif
+    const size_t bytes = aacbvh::round_to_block(4 * kMiB + 3 * page + 1);
+    void *block = aacbvh::allocate_system_block(bytes);
+    std::vector<unsigned char> resident(bytes / page);
+    assert_int_equal(mincore(block, bytes, resident.data()), 0);
+    size_t count = 0;
+    for (unsigned char r : resident) count += r & 1u;
+    aacbvh::free_system_block(block, bytes);
+    if (kernel_populates && count != resident.size())
+        fail_msg("%zu of %zu pages of a new block are mapped", count, resident.size());
+    if (!kernel_populates && count != 0)
+        fail_msg("%zu pages of an untouched block are mapped, with no populate advice", count);
+}
+
 } // namespace
 
 int main() {
@@ -349,6 +377,7 @@ int main() {
         cmocka_unit_test(test_build_reuses_freed_blocks),
         cmocka_unit_test(test_failures_with_kept_memory),
         cmocka_unit_test(test_wide_tree_is_metered),
+        cmocka_unit_test(test_blocks_are_mapped_at_once),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }
