@@ -27,27 +27,32 @@ int open_largest_children(const Node *nodes, uint32_t root, const IsLeaf &is_lea
         kids[0] = root;
         return 1;
     }
+    // Each child's area and leafness are found once, when it joins.
+    float area[Width];
+    bool leaf[Width];
     int m = 0;
-    kids[m++] = nodes[root].first;
-    kids[m++] = nodes[root].first + 1;
+    const auto join = [&](int k, uint32_t node) {
+        kids[k] = node;
+        area[k] = nodes[node].box.half_area();
+        leaf[k] = is_leaf(node);
+    };
+    join(m++, nodes[root].first);
+    join(m++, nodes[root].first + 1);
     while (m < Width) {
         int open = -1;
         float open_area = -1.0f;
         for (int k = 0; k < m; ++k) {
-            if (is_leaf(kids[k])) continue;
-            const float a = nodes[kids[k]].box.half_area();
-            if (a > open_area) {
+            if (leaf[k]) continue;
+            if (area[k] > open_area) {
                 open = k;
-                open_area = a;
+                open_area = area[k];
             }
         }
         if (open < 0) break;
         const uint32_t first = nodes[kids[open]].first;
-        kids[open] = first;
-        kids[m++] = first + 1;
+        join(open, first);
+        join(m++, first + 1);
     }
-    float area[Width];
-    for (int k = 0; k < m; ++k) area[k] = nodes[kids[k]].box.half_area();
     for (int k = 1; k < m; ++k) { // insertion sort, stable
         const uint32_t kid = kids[k];
         const float a = area[k];
