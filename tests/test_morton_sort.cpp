@@ -1,5 +1,7 @@
 // sort_by_morton_code (build/morton.h) against an independent reference: the
-// codes computed one by one and std::stable_sort, on random scenes, on scenes
+// codes computed one by one (MortonQuantizer, itself checked against the
+// arithmetic interleave on every cell coordinate and on points on and beyond
+// the bounds) and std::stable_sort, on random scenes, on scenes
 // where most codes share their high half (a tiny cluster in a huge scene, so
 // the sort's second stage orders long runs), on equal codes, and at one and
 // several threads.
@@ -13,6 +15,8 @@ extern "C" {
 }
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -65,6 +69,73 @@ void check_sorted(const std::vector<Box> &boxes, unsigned threads) {
 }
 
 Box point_box(float x, float y, float z) { return Box{{x, y, z}, {x, y, z}}; }
+
+/// The code as the quantizer's first form computed it: the cell in double,
+/// clamped, converted to uint64_t, spread by shifts and masks.
+uint64_t reference_code(const Box &bounds, const float p[3]) {
+    constexpr uint64_t cells = uint64_t(1) << 21;
+    double largest = 0.0;
+    for (int k = 0; k < 3; ++k) largest = std::max(largest, double(bounds.hi[k]) - double(bounds.lo[k]));
+    uint64_t q[3];
+    for (int k = 0; k < 3; ++k) {
+        const double scale = largest > 0.0 ? double(cells) / largest : 0.0;
+        const double cell = (double(p[k]) - double(bounds.lo[k])) * scale;
+        q[k] = cell <= 0.0 ? 0 : cell >= double(cells - 1) ? cells - 1 : uint64_t(cell);
+    }
+    return aacbvh::spread_bits_21(q[0]) << 2 | aacbvh::spread_bits_21(q[1]) << 1 | aacbvh::spread_bits_21(q[2]);
+}
+
+/// The quantizer's byte tables spread every 21-bit coordinate on every axis
+/// as the arithmetic form does; its codes equal the reference's for random
+/// points, the bounds' corners, points a hair inside and beyond them, cell
+/// edges, bounds spanning most of the float range and flat or empty extents.
+void test_codes(void **) {
+    // A cube of side 2^21 puts point (x, y, z) in cell (x, y, z).
+    const aacbvh::MortonQuantizer cube(Box{{0.0f, 0.0f, 0.0f}, {2097152.0f, 2097152.0f, 2097152.0f}});
+    for (uint32_t c = 0; c < (1u << 21); ++c) {
+        const float on_axis[3][3] = {{float(c), 0.0f, 0.0f}, {0.0f, float(c), 0.0f}, {0.0f, 0.0f, float(c)}};
+        for (int a = 0; a < 3; ++a) {
+            const uint64_t want = aacbvh::spread_bits_21(c) << (2 - a);
+            const uint64_t got = cube.code(on_axis[a]);
+            if (got != want)
+                fail_msg("coordinate %u on axis %d: code %llx, expected %llx", c, a, (unsigned long long)got,
+                         (unsigned long long)want);
+        }
+    }
+    std::mt19937 rng(17);
+    const Box bounds_list[] = {
+        Box{{-100.0f, -3.0f, 7.0f}, {250.0f, 4.0f, 7.5f}},
+        Box{{-3.0e38f, -3.0e38f, -3.0e38f}, {3.0e38f, 3.0e38f, 3.0e38f}},
+        Box{{1.0f, 2.0f, 3.0f}, {1.0f, 2.0f, 3.0f}},       // one point: scale 0
+        Box{{0.0f, 5.0f, -1.0f}, {1e-30f, 5.0f, 1.0f}},    // flat and tiny extents
+        Box{{1e6f, 1e6f, 1e6f}, {1e6f + 1.0f, 1e6f + 0.125f, 1e6f + 0.5f}},
+    };
+    for (const Box &b : bounds_list) {
+        const aacbvh::MortonQuantizer q(b);
+        std::vector<std::array<float, 3>> points;
+        for (int corner = 0; corner < 8; ++corner)
+            points.push_back({corner & 1 ? b.hi[0] : b.lo[0], corner & 2 ? b.hi[1] : b.lo[1],
+                              corner & 4 ? b.hi[2] : b.lo[2]});
+        for (int i = 0; i < 20000; ++i) {
+            std::array<float, 3> p;
+            for (int k = 0; k < 3; ++k) {
+                const float lo = b.lo[k], hi = b.hi[k];
+                const float t = std::uniform_real_distribution<float>(-0.01f, 1.01f)(rng);
+                float v = lo + (hi - lo) * t;
+                if (i % 5 == 1) v = std::nextafter(t < 0.5f ? lo : hi, t < 0.25f || t > 0.75f ? -INFINITY : INFINITY);
+                if (!std::isfinite(v)) v = t < 0.5f ? lo : hi;
+                p[k] = v;
+            }
+            points.push_back(p);
+        }
+        for (const auto &p : points) {
+            const uint64_t want = reference_code(b, p.data()), got = q.code(p.data());
+            if (got != want)
+                fail_msg("point (%g, %g, %g): code %llx, expected %llx", double(p[0]), double(p[1]), double(p[2]),
+                         (unsigned long long)got, (unsigned long long)want);
+        }
+    }
+}
 
 void test_random_scenes(void **) {
     std::mt19937 rng(7);
@@ -168,6 +239,7 @@ void test_all_equal(void **) {
 
 int main() {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_codes),
         cmocka_unit_test(test_random_scenes),
         cmocka_unit_test(test_runs_of_equal_high_bits),
         cmocka_unit_test(test_close_pairs),

@@ -12,7 +12,8 @@
 
 namespace aacbvh {
 
-/// Spreads the low 21 bits of x so that bit i lands on bit 3i.
+/// Spreads the low 21 bits of x so that bit i lands on bit 3i (the
+/// arithmetic form; MortonQuantizer spreads by tables).
 inline uint64_t spread_bits_21(uint64_t x) {
     x &= 0x1FFFFF;
     x = (x | x << 32) & 0x1F00000000FFFFull;
@@ -22,6 +23,21 @@ inline uint64_t spread_bits_21(uint64_t x) {
     x = (x | x << 2) & 0x1249249249249249ull;
     return x;
 }
+
+/// spread[a][b]: the bits i of byte b at bits 3i + 2 - a, for axis a (x 0,
+/// y 1, z 2): one byte of each axis makes 24 bits of a Morton code.
+struct MortonByteTable {
+    uint32_t spread[3][256];
+    constexpr MortonByteTable() : spread{} {
+        for (int a = 0; a < 3; ++a)
+            for (uint32_t b = 0; b < 256; ++b) {
+                uint32_t s = 0;
+                for (int i = 0; i < 8; ++i) s |= (b >> i & 1u) << (3 * i + 2 - a);
+                spread[a][b] = s;
+            }
+    }
+};
+inline constexpr MortonByteTable kMortonBytes{};
 
 /// Maps points of `bounds` onto a grid of 2^21 cells per axis. The cells are
 /// cubes (one scale, from the largest extent), so the radix-tree splits of an
@@ -40,13 +56,23 @@ public:
             scale_[k] = largest > 0.0 ? double(kCells) / largest : 0.0;
         }
     }
+    /// The cell's coordinates interleaved, x highest: bit i of x, y, z at
+    /// bits 3i + 2, 3i + 1, 3i. Spread a byte at a time through tables (nine
+    /// loads instead of fifteen shift, or and mask steps per axis); the same
+    /// codes as spread_bits_21 (tests/test_morton_sort.cpp checks every value).
     uint64_t code(const float p[3]) const {
-        uint64_t q[3];
+        uint32_t q[3];
         for (int k = 0; k < 3; ++k) {
             const double cell = (double(p[k]) - origin_[k]) * scale_[k];
-            q[k] = cell <= 0.0 ? 0 : cell >= double(kCells - 1) ? kCells - 1 : uint64_t(cell);
+            // In range, the cell fits an int64_t, whose conversion is one
+            // instruction (uint64_t's is not, before AVX-512).
+            q[k] = cell <= 0.0 ? 0 : cell >= double(kCells - 1) ? uint32_t(kCells - 1) : uint32_t(int64_t(cell));
         }
-        return spread_bits_21(q[0]) << 2 | spread_bits_21(q[1]) << 1 | spread_bits_21(q[2]);
+        const uint32_t(&t)[3][256] = kMortonBytes.spread;
+        const uint64_t low = t[0][q[0] & 255] | t[1][q[1] & 255] | t[2][q[2] & 255];
+        const uint64_t mid = t[0][q[0] >> 8 & 255] | t[1][q[1] >> 8 & 255] | t[2][q[2] >> 8 & 255];
+        const uint64_t high = t[0][q[0] >> 16] | t[1][q[1] >> 16] | t[2][q[2] >> 16];
+        return low | mid << 24 | high << 48;
     }
 
 private:
