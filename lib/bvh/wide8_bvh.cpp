@@ -280,8 +280,12 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     // gather are asked for ahead (two steps: the index, then the vertices).
     scheduler.parallel_for(0, next_packet, 1u << 12, [&](size_t b, size_t e) {
         for (size_t p = b; p < e; ++p) {
-            if (p + 16 < e) triangles->prefetch_indices(prim_ids[packet_slots[p + 16]]);
-            if (p + 8 < e) triangles->prefetch_vertices(prim_ids[packet_slots[p + 8]]);
+            if (p + 16 < e)
+                for (uint32_t j = 0; j < packet_lanes[p + 16]; ++j)
+                    triangles->prefetch_indices(prim_ids[packet_slots[p + 16] + j]);
+            if (p + 8 < e)
+                for (uint32_t j = 0; j < packet_lanes[p + 8]; ++j)
+                    triangles->prefetch_vertices(prim_ids[packet_slots[p + 8] + j]);
             fill_packet(packet_array[p], *triangles, prim_ids, packet_slots[p], packet_lanes[p]);
         }
     });
