@@ -47,6 +47,14 @@ if(AACBVH_BENCH_EMBREE AND EMBREE3_INCLUDE_DIR AND EMBREE3_LIBRARY AND NOT AACBV
   target_link_libraries(aacbvh-hit-accuracy PRIVATE ${EMBREE3_LIBRARY})
 endif()
 
+# aacbvh-batch-threads: Mrays/s of whole ray batches at each context thread
+# count (the rays issue: a batch uses every thread), answers compared across
+# the counts.
+add_executable(aacbvh-batch-threads ${_bench_dir}/batch_threads.cpp)
+target_compile_options(aacbvh-batch-threads PRIVATE -Wall -Wextra)
+target_link_libraries(aacbvh-batch-threads PRIVATE aacbvh_bench_core aacbvh_scene)
+target_compile_definitions(aacbvh-batch-threads PRIVATE AACBVH_SCENES_DIR="${AACBVH_SCENES_DIR}")
+
 if(AACBVH_BUILD_TESTS)
   # The ray-cost counter on a hand-built tree whose counts are known exactly.
   add_executable(test_ray_cost ${_bench_dir}/test_ray_cost.cpp)
@@ -98,6 +106,17 @@ if(AACBVH_BUILD_TESTS)
             "-DEXPECT=in-scene views: 3 of 8x8 primary rays.*builder +rays +SAH +overlap A/V +boxes +tris +rel\\. cost +Mrays/s +rel\\. time\n+Sweep SAH +primary +[0-9.]+ +[0-9.]+/[0-9.]+ +[0-9.]+/[0-9.]+ +[0-9.]+/[0-9.]+ +1\\.00/1\\.00 .*AAC-Fast +primary"
             -P ${_bench_dir}/run_expect.cmake)
   set_tests_properties(bench_views_table PROPERTIES TIMEOUT 300)
+
+  # Smoke test of aacbvh-batch-threads: a small generated scene at one, two
+  # and three threads; it exits 1 when a thread count's answers differ from
+  # one thread's, and must print a speedup column.
+  add_test(NAME bench_batch_threads_smoke
+    COMMAND ${CMAKE_COMMAND}
+            -DPROGRAM=$<TARGET_FILE:aacbvh-batch-threads>
+            "-DARGS=--scenes procedural-small --rays 48 --threads 1,2,3 --runs 1"
+            "-DEXPECT=procedural-small +diffuse +[0-9]+ +[0-9.]+ +[0-9.]+ \\([0-9.]+x\\) +[0-9.]+ \\([0-9.]+x\\)\n"
+            -P ${_bench_dir}/run_expect.cmake)
+  set_tests_properties(bench_batch_threads_smoke PROPERTIES TIMEOUT 300)
 
   # Smoke test of aacbvh-hit-accuracy: a small generated scene; it must exit 0
   # and print the accuracy table's header (run_expect.cmake checks both, as
