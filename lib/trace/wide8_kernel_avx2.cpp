@@ -38,8 +38,9 @@ struct NodeRay {
 inline NodeRay make_node_ray(const BoxRay &r, float tmin) {
     NodeRay w;
     for (int a = 0; a < 3; ++a) {
-        w.near[a] = 2 * a + (r.neg[a] ? 1 : 0);
-        w.far[a] = 2 * a + (r.neg[a] ? 0 : 1);
+        const long neg = long(r.neg[a]);
+        w.near[a] = 2 * a + neg;
+        w.far[a] = 2 * a + 1 - neg;
         w.org[a] = _mm256_set1_ps(r.org[a]);
         w.inv[a] = _mm256_set1_ps(r.inv[a]);
         w.inv_far[a] = _mm256_set1_ps(r.inv_far[a]);
