@@ -56,6 +56,17 @@ target_link_libraries(aacbvh-batch-threads PRIVATE aacbvh_bench_core aacbvh_scen
 target_compile_definitions(aacbvh-batch-threads PRIVATE AACBVH_SCENES_DIR="${AACBVH_SCENES_DIR}")
 
 if(AACBVH_BUILD_TESTS)
+  # A test that runs TARGET with ARGS (one string, split as a shell would)
+  # and passes when it exits 0 and its standard output matches the regular
+  # expression EXPECT (run_expect.cmake: PASS_REGULAR_EXPRESSION alone would
+  # ignore the exit status). Five minutes at most.
+  function(bench_expect_test name target args expect)
+    add_test(NAME ${name}
+      COMMAND ${CMAKE_COMMAND} -DPROGRAM=$<TARGET_FILE:${target}> "-DARGS=${args}" "-DEXPECT=${expect}"
+              -P ${_bench_dir}/run_expect.cmake)
+    set_tests_properties(${name} PROPERTIES TIMEOUT 300)
+  endfunction()
+
   # The ray-cost counter on a hand-built tree whose counts are known exactly.
   add_executable(test_ray_cost ${_bench_dir}/test_ray_cost.cpp)
   target_compile_options(test_ray_cost PRIVATE -Wall -Wextra)
@@ -99,33 +110,20 @@ if(AACBVH_BUILD_TESTS)
   # line per builder and ray kind (--self-check checks its figures: worst views
   # no better than the mean, sweep SAH exactly 1 against itself), and the CSV
   # carries the view and overlap columns.
-  add_test(NAME bench_views_table
-    COMMAND ${CMAKE_COMMAND}
-            -DPROGRAM=$<TARGET_FILE:aacbvh-bench>
-            "-DARGS=--scenes procedural-small --runs 1 --rays 8 --views 3 --view-rays 8 --builders sweep-sah,aac-hq,aac-fast --no-embree --self-check --csv ${CMAKE_CURRENT_BINARY_DIR}/bench_views.csv"
-            "-DEXPECT=in-scene views: 3 of 8x8 primary rays.*builder +rays +SAH +overlap A/V +boxes +tris +rel\\. cost +Mrays/s +rel\\. time\n+Sweep SAH +primary +[0-9.]+ +[0-9.]+/[0-9.]+ +[0-9.]+/[0-9.]+ +[0-9.]+/[0-9.]+ +1\\.00/1\\.00 .*AAC-Fast +primary"
-            -P ${_bench_dir}/run_expect.cmake)
-  set_tests_properties(bench_views_table PROPERTIES TIMEOUT 300)
+  bench_expect_test(bench_views_table aacbvh-bench
+    "--scenes procedural-small --runs 1 --rays 8 --views 3 --view-rays 8 --builders sweep-sah,aac-hq,aac-fast --no-embree --self-check --csv ${CMAKE_CURRENT_BINARY_DIR}/bench_views.csv"
+    "in-scene views: 3 of 8x8 primary rays.*builder +rays +SAH +overlap A/V +boxes +tris +rel\\. cost +Mrays/s +rel\\. time\n+Sweep SAH +primary +[0-9.]+ +[0-9.]+/[0-9.]+ +[0-9.]+/[0-9.]+ +[0-9.]+/[0-9.]+ +1\\.00/1\\.00 .*AAC-Fast +primary")
 
   # Smoke test of aacbvh-batch-threads: a small generated scene at one, two
   # and three threads; it exits 1 when a thread count's answers differ from
   # one thread's, and must print a speedup column.
-  add_test(NAME bench_batch_threads_smoke
-    COMMAND ${CMAKE_COMMAND}
-            -DPROGRAM=$<TARGET_FILE:aacbvh-batch-threads>
-            "-DARGS=--scenes procedural-small --rays 48 --threads 1,2,3 --runs 1"
-            "-DEXPECT=procedural-small +diffuse +[0-9]+ +[0-9.]+ +[0-9.]+ \\([0-9.]+x\\) +[0-9.]+ \\([0-9.]+x\\)\n"
-            -P ${_bench_dir}/run_expect.cmake)
-  set_tests_properties(bench_batch_threads_smoke PROPERTIES TIMEOUT 300)
+  bench_expect_test(bench_batch_threads_smoke aacbvh-batch-threads
+    "--scenes procedural-small --rays 48 --threads 1,2,3 --runs 1"
+    "procedural-small +diffuse +[0-9]+ +[0-9.]+ +[0-9.]+ \\([0-9.]+x\\) +[0-9.]+ \\([0-9.]+x\\)\n")
 
   # Smoke test of aacbvh-hit-accuracy: a small generated scene; it must exit 0
-  # and print the accuracy table's header (run_expect.cmake checks both, as
-  # PASS_REGULAR_EXPRESSION alone would ignore the exit status).
-  add_test(NAME bench_hit_accuracy_smoke
-    COMMAND ${CMAKE_COMMAND}
-            -DPROGRAM=$<TARGET_FILE:aacbvh-hit-accuracy>
-            "-DARGS=--scenes procedural-small --size 32 --runs 1 --markdown ${CMAKE_CURRENT_BINARY_DIR}/bench_hit_accuracy_smoke.md"
-            "-DEXPECT=\\| scene \\| rays \\| library \\| hits \\| measured \\| max rel\\. error \\|"
-            -P ${_bench_dir}/run_expect.cmake)
-  set_tests_properties(bench_hit_accuracy_smoke PROPERTIES TIMEOUT 300)
+  # and print the accuracy table's header.
+  bench_expect_test(bench_hit_accuracy_smoke aacbvh-hit-accuracy
+    "--scenes procedural-small --size 32 --runs 1 --markdown ${CMAKE_CURRENT_BINARY_DIR}/bench_hit_accuracy_smoke.md"
+    "\\| scene \\| rays \\| library \\| hits \\| measured \\| max rel\\. error \\|")
 endif()
