@@ -1,9 +1,10 @@
 #!/bin/sh
 # Regenerates docs/EVALUATION.md (and docs/evaluation.{csv,json,svg}) from one run
-# of the evaluation benchmark over every OBJ in ../shared/scenes, every builder,
-# and Embree when the build found it. The command it runs:
+# of the evaluation benchmark over every OBJ in ../shared/scenes and the
+# generated scene (the issues' targets name both), every builder, and Embree
+# when the build found it. The command it runs:
 #
-#   aacbvh-bench --runs 5 --rays 256 --threads 1,2 \
+#   aacbvh-bench --scenes shared,procedural --runs 5 --rays 256 --threads 1,2 \
 #       --csv docs/evaluation.csv --json docs/evaluation.json \
 #       --svg docs/evaluation.svg --markdown docs/EVALUATION.md
 #
@@ -25,6 +26,6 @@ cmake --build "$build" --target aacbvh-bench -j2
 
 cd "$root"
 mkdir -p docs
-"$build/examples/aacbvh-bench" --runs 5 --rays 256 --threads 1,2 \
+"$build/examples/aacbvh-bench" --scenes shared,procedural --runs 5 --rays 256 --threads 1,2 \
   --csv docs/evaluation.csv --json docs/evaluation.json \
   --svg docs/evaluation.svg --markdown docs/EVALUATION.md "$@"

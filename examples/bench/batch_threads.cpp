@@ -43,8 +43,9 @@ void usage(const char *argv0) {
     std::fprintf(stderr,
                  "usage: %s [--scenes LIST] [--rays N|WxH] [--threads LIST] [--runs N]\n"
                  "  --scenes LIST   comma-separated OBJ paths, names of OBJ files in the scenes\n"
-                 "                  directory, 'procedural' or 'procedural-small'; default: every\n"
-                 "                  *.obj in %s, else 'procedural'\n"
+                 "                  directory, 'shared' (every *.obj there), 'procedural' or\n"
+                 "                  'procedural-small'; default: every *.obj in %s,\n"
+                 "                  else 'procedural'\n"
                  "  --rays N|WxH    primary rays: an N x N image or W x H (default 384: 147,456 rays)\n"
                  "  --threads LIST  context thread counts, e.g. 1,2 (default 1 and this machine's\n"
                  "                  hardware threads); speedups are over the first\n"
@@ -204,9 +205,7 @@ int main(int argc, char **argv) {
         usage(argv[0]);
         return 2;
     }
-    std::vector<std::string> specs = opt.scenes;
-    if (specs.empty()) specs = default_scene_paths(AACBVH_SCENES_DIR[0] ? AACBVH_SCENES_DIR : nullptr);
-    if (specs.empty()) specs.push_back("procedural");
+    const std::vector<std::string> specs = expand_scene_specs(opt.scenes, AACBVH_SCENES_DIR);
 
     std::printf("aacbvh-batch-threads: %s, %u hardware threads; libaacbvh %s\n", cpu_name().c_str(),
                 std::thread::hardware_concurrency(), aacbvh_version_string());

@@ -73,6 +73,12 @@ if(AACBVH_BUILD_TESTS)
   target_link_libraries(test_ray_cost PRIVATE aacbvh_bench_core)
   add_test(NAME bench_ray_cost COMMAND test_ray_cost)
 
+  # The --scenes list: "shared" expanded to the scenes directory's OBJ files.
+  add_executable(test_scene_specs ${_bench_dir}/test_scene_specs.cpp)
+  target_compile_options(test_scene_specs PRIVATE -Wall -Wextra)
+  target_link_libraries(test_scene_specs PRIVATE aacbvh_bench_core)
+  add_test(NAME bench_scene_specs COMMAND test_scene_specs)
+
   # The report: Pareto fronts, JSON written and read back, the plot's panels.
   add_executable(test_report ${_bench_dir}/test_report.cpp)
   target_compile_options(test_report PRIVATE -Wall -Wextra)

@@ -142,9 +142,9 @@ void usage(FILE *out) {
         "\n"
         "options:\n"
         "  --scenes LIST     comma-separated OBJ paths, names of OBJ files in the scenes\n"
-        "                    directory, 'procedural' (about 200 K triangles) or\n"
-        "                    'procedural-small' (about 3 K); default: every *.obj in\n"
-        "                    %s, else 'procedural'\n"
+        "                    directory, 'shared' (every *.obj there), 'procedural' (about\n"
+        "                    240 K triangles) or 'procedural-small' (about 3 K); default:\n"
+        "                    every *.obj in %s, else 'procedural'\n"
         "  --builders LIST   comma-separated from sweep-sah, binned-sah, locally-ordered,\n"
         "                    ploc, aac-hq, aac-fast, embree-low, embree-medium,\n"
         "                    embree-scene, or B+optN (builder B, then N passes of\n"
@@ -780,9 +780,7 @@ bool run_benchmark(int argc, char **argv, const Options &opt, Checker &check, Ru
         info.date = buf;
     }
 
-    std::vector<std::string> specs = opt.scenes;
-    if (specs.empty()) specs = default_scene_paths(AACBVH_SCENES_DIR[0] ? AACBVH_SCENES_DIR : nullptr);
-    if (specs.empty()) specs.push_back("procedural");
+    const std::vector<std::string> specs = expand_scene_specs(opt.scenes, AACBVH_SCENES_DIR);
 
     Contexts contexts;
     if (!contexts.get(1)) {

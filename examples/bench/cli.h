@@ -49,6 +49,25 @@ inline std::string cpu_name() {
     return "unknown CPU";
 }
 
+/// The scenes a --scenes list names, in its order: the entry "shared" stands
+/// for every *.obj in `scenes_dir` (sorted; none when there is no such
+/// directory); other entries stay as they are (see load_scene_spec()). An
+/// empty list means "shared"; when that finds nothing, "procedural".
+inline std::vector<std::string> expand_scene_specs(const std::vector<std::string> &listed, const char *scenes_dir) {
+    const std::vector<std::string> fallback{"shared"};
+    std::vector<std::string> out;
+    for (const std::string &spec : listed.empty() ? fallback : listed) {
+        if (spec != "shared") {
+            out.push_back(spec);
+            continue;
+        }
+        const std::vector<std::string> found = default_scene_paths(scenes_dir[0] ? scenes_dir : nullptr);
+        out.insert(out.end(), found.begin(), found.end());
+    }
+    if (listed.empty() && out.empty()) out.push_back("procedural");
+    return out;
+}
+
 /// Loads a --scenes entry: "procedural" (about 240 K triangles),
 /// "procedural-small" (about 3 K), a path, or the name of an OBJ file in
 /// `scenes_dir` ("" for none; ".obj" may be left out). False with a message

@@ -95,7 +95,7 @@ void usage(FILE *out) {
         "\n"
         "options:\n"
         "  --scenes LIST     comma-separated OBJ paths, names of OBJ files in the scenes\n"
-        "                    directory, 'procedural' (about 200 K triangles) or\n"
+        "                    directory, 'procedural' (about 240 K triangles) or\n"
         "                    'procedural-small' (about 3 K); default: sponza_dabrovic and\n"
         "                    conference from %s, else 'procedural'\n"
         "  --size N          primary rays: an N x N image (default 362, about 131 K rays)\n"
