@@ -22,7 +22,7 @@ namespace aacbvh {
 /// The closest hit of one ray so far (AnyHit false), or whether any hit was
 /// found (AnyHit true, which stops at the first).
 template <bool AnyHit> struct HitRecord {
-    explicit HitRecord(float ray_tmax) : tmax(ray_tmax) {}
+    explicit HitRecord(float ray_tmax) : tmax(ray_tmax), reach_(exit_reach(ray_tmax)) {}
 
     float tmax;                          ///< the ray's tmax, then the closest hit's t
     float u = 0.0f, v = 0.0f;
@@ -52,6 +52,7 @@ template <bool AnyHit> struct HitRecord {
         if (found && t == tmax && id > prim) return false; // the tie rule
         found = true;
         tmax = t;
+        reach_ = exit_reach(t);
         u = hu;
         v = hv;
         prim = id;
@@ -63,7 +64,8 @@ template <bool AnyHit> struct HitRecord {
     /// primitive inside can lie nearer, so tmax is widened exactly as the node
     /// test widens its exit distance. A node is skipped only if the node test
     /// would now reject it too.
-    float reach() const { return exit_reach(tmax); }
+    /// Kept beside tmax (set where tmax changes), not computed at each pop.
+    float reach() const { return reach_; }
 
     /// Pops `stack` until an entry (with entry distance .t) within reach();
     /// false when none is left.
@@ -78,6 +80,9 @@ template <bool AnyHit> struct HitRecord {
         }
         return false;
     }
+
+private:
+    float reach_; ///< exit_reach(tmax)
 };
 
 } // namespace aacbvh

@@ -3,11 +3,12 @@
 // region, after the file has defined its node and packet tests:
 //   struct NodeRay;     NodeRay make_node_ray(const BoxRay &, float tmin);
 //   unsigned test_children(const Wide8Node &, const NodeRay &, float tmin,
-//                          float tmax, float t_entry[8]);
+//                          float bound, float t_entry[8]);
 //     bit k set when child k may be hit within [tmin, tmax] (a conservative
 //     slab test: the binary layout's ray_box_conservative() lane for lane,
 //     or, where the window starts at 0 or later, exits widened through
 //     kFarScale; trace/ray_box.h), its clipped entry distance in t_entry[k];
+//     `bound` is exit_bound(ray, tmax) below;
 //   int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);
 //     the hit lanes' (distance, 7 - lane) keys, ascending (sort_hits_insertion()
 //     below, or a sorting network);
@@ -23,6 +24,12 @@
 // which decides as intersect_triangle() would on the same values, so every
 // kernel reports exactly the hits of the binary traversal.
 // No lambdas here: a target region does not reach into them.
+
+/// What a node test compares the children's exit distances with:
+/// exit_reach(tmax) where the window starts at 0 or later (the exits are
+/// widened through inv_far), else tmax (the exits widened afterwards). It
+/// changes only with tmax, so traverse() keeps it between leaves.
+inline float exit_bound(const NodeRay &r, float tmax) { return r.window_from_zero ? exit_reach(tmax) : tmax; }
 
 /// A child (node index, or leaf: first packet or slot, and count) with its
 /// entry distance.
@@ -121,11 +128,12 @@ bool traverse(const Wide8Bvh &wide, const uint32_t *prim_ids, const Slots &slots
     HitRecord<AnyHit> best(tmax);
     EntryStack stack;
     Entry current{0u, 0u, tmin}; // the root, an inner node
+    float bound = exit_bound(nray, best.tmax);
     for (;;) {
         if (current.count == 0) {
             const Wide8Node &node = nodes[current.child];
             alignas(32) float t_entry[8];
-            unsigned mask = test_children(node, nray, tmin, best.tmax, t_entry);
+            unsigned mask = test_children(node, nray, tmin, bound, t_entry);
             if (mask != 0) {
                 const unsigned k0 = unsigned(__builtin_ctz(mask));
                 mask &= mask - 1;
@@ -163,9 +171,11 @@ bool traverse(const Wide8Bvh &wide, const uint32_t *prim_ids, const Slots &slots
                 current = Entry{node.child[k], node.count[k], t_entry[k]};
                 continue;
             }
-        } else if (Packets ? test_packets<AnyHit>(packets + current.child, current.count, tray, pray, tmin, best)
-                           : best.test_leaf(slots, prim_ids, current.child, current.count, tmin)) {
-            break;
+        } else {
+            if (Packets ? test_packets<AnyHit>(packets + current.child, current.count, tray, pray, tmin, best)
+                        : best.test_leaf(slots, prim_ids, current.child, current.count, tmin))
+                break;
+            bound = exit_bound(nray, best.tmax);
         }
         if (!best.pop_next(stack, current)) break;
     }

@@ -49,7 +49,7 @@ inline NodeRay make_node_ray(const BoxRay &r, float tmin) {
     return w;
 }
 
-inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float tmax, float t_entry[8]) {
+inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float bound, float t_entry[8]) {
     const __m256 nx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.near[0]]), r.org[0]), r.inv[0]);
     const __m256 ny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.near[1]]), r.org[1]), r.inv[1]);
     const __m256 nz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.near[2]]), r.org[2]), r.inv[2]);
@@ -67,14 +67,14 @@ inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmi
         const __m256 fx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[0]]), r.org[0]), r.inv_far[0]);
         const __m256 fy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[1]]), r.org[1]), r.inv_far[1]);
         const __m256 fz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[2]]), r.org[2]), r.inv_far[2]);
-        b = _mm256_min_ps(fx, _mm256_set1_ps(exit_reach(tmax)));
+        b = _mm256_min_ps(fx, _mm256_set1_ps(bound));
         b = _mm256_min_ps(fy, b);
         b = _mm256_min_ps(fz, b);
     } else { // ray_box_conservative()'s widening, lane for lane
         const __m256 fx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[0]]), r.org[0]), r.inv[0]);
         const __m256 fy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[1]]), r.org[1]), r.inv[1]);
         const __m256 fz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[2]]), r.org[2]), r.inv[2]);
-        b = _mm256_min_ps(fx, _mm256_set1_ps(tmax));
+        b = _mm256_min_ps(fx, _mm256_set1_ps(bound));
         b = _mm256_min_ps(fy, b);
         b = _mm256_min_ps(fz, b);
         const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));

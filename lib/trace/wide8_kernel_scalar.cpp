@@ -32,11 +32,11 @@ inline NodeRay make_node_ray(const BoxRay &r, float tmin) {
     return w;
 }
 
-inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float tmax, float t_entry[8]) {
+inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float bound, float t_entry[8]) {
     unsigned mask = 0;
     // ray_box_from_zero() where the window starts at 0 or later, else
     // ray_box_conservative(), lane by lane.
-    const float b0 = r.window_from_zero ? exit_reach(tmax) : tmax;
+    const float b0 = bound;
     for (int k = 0; k < 8; ++k) {
         float a = tmin, b = b0;
         for (int ax = 0; ax < 3; ++ax) {

@@ -64,9 +64,9 @@ inline unsigned test_four(const Wide8Node &node, const NodeRay &r, int h, __m128
     return unsigned(_mm_movemask_ps(_mm_cmple_ps(a, b)));
 }
 
-inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float tmax, float t_entry[8]) {
-    const __m128 lo = _mm_set1_ps(tmin), bound = _mm_set1_ps(r.window_from_zero ? exit_reach(tmax) : tmax);
-    return test_four(node, r, 0, lo, bound, t_entry) | (test_four(node, r, 4, lo, bound, t_entry) << 4);
+inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float bound, float t_entry[8]) {
+    const __m128 lo = _mm_set1_ps(tmin), hi = _mm_set1_ps(bound);
+    return test_four(node, r, 0, lo, hi, t_entry) | (test_four(node, r, 4, lo, hi, t_entry) << 4);
 }
 
 using PacketRay = PacketRaySse;
