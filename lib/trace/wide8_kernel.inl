@@ -119,10 +119,13 @@ struct NoSlots {
 /// Closest hit (AnyHit false) or any hit of a valid ray over a non-empty
 /// wide tree. Hit children are visited near to far: the nearest next, the
 /// others pushed farthest first, each skipped when popped beyond the closest
-/// hit (HitRecord::pop_next).
+/// hit (HitRecord::pop_next). Always inlined into query(): the ray's rows
+/// then stay in registers instead of being passed through memory, and the
+/// call goes (docs/PERFORMANCE.md, change 100).
 template <bool AnyHit, bool Packets, class Slots>
-bool traverse(const Wide8Bvh &wide, const uint32_t *prim_ids, const Slots &slots, const NodeRay &nray,
-              const TriangleRay &tray, const PacketRay &pray, float tmin, float tmax, aacbvh_hit &hit) {
+[[gnu::always_inline]] inline bool traverse(const Wide8Bvh &wide, const uint32_t *prim_ids, const Slots &slots,
+                                            const NodeRay &nray, const TriangleRay &tray, const PacketRay &pray,
+                                            float tmin, float tmax, aacbvh_hit &hit) {
     const Wide8Node *nodes = wide.nodes();
     const TrianglePacket *packets = wide.packets();
     HitRecord<AnyHit> best(tmax);
@@ -195,26 +198,29 @@ bool query(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const
     }
     const ScaledRay scaled(ray);
     const aacbvh_ray &r = scaled.ray;
-    const BoxRay box_ray = make_box_ray(r.org, r.dir);
-    const NodeRay nray = make_node_ray(box_ray, r.tmin);
     const uint32_t *prim_ids = bvh.prim_ids.data();
-    auto over_slots = [&](const auto &prims, const TriangleRay &tray) {
+    auto over_slots = [&](const auto &prims, const NodeRay &nray, const TriangleRay &tray) {
         if constexpr (Counted)
             return traverse<AnyHit, false>(wide, prim_ids, count_tests(prims, tests), nray, tray, PacketRay{},
                                            r.tmin, r.tmax, hit);
         else
             return traverse<AnyHit, false>(wide, prim_ids, prims, nray, tray, PacketRay{}, r.tmin, r.tmax, hit);
     };
+    // The box ray is made in each branch: only box primitives keep all of it
+    // (its SSE rows included); for triangles the compiler keeps what the node
+    // rows need.
     bool found;
     if (geometry.kind == GeometryKind::Boxes) {
-        found = over_slots(BoxPrimitives{geometry, prim_ids, box_ray}, TriangleRay{});
+        const BoxRay box_ray = make_box_ray(r.org, r.dir);
+        found = over_slots(BoxPrimitives{geometry, prim_ids, box_ray}, make_node_ray(box_ray, r.tmin), TriangleRay{});
     } else {
+        const NodeRay nray = make_node_ray(make_box_ray(r.org, r.dir), r.tmin);
         const TriangleRay tray = make_triangle_ray(r.org, r.dir);
         if (wide.has_packets())
             found = traverse<AnyHit, true>(wide, prim_ids, NoSlots{}, nray, tray, make_packet_ray(tray), r.tmin,
                                            r.tmax, hit);
         else
-            found = over_slots(TrianglePrimitives{geometry, prim_ids, tray}, tray);
+            found = over_slots(TrianglePrimitives{geometry, prim_ids, tray}, nray, tray);
     }
     if (!AnyHit) scaled.unscale(hit);
     return found;
