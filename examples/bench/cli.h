@@ -54,17 +54,20 @@ inline std::string cpu_name() {
 /// directory); other entries stay as they are (see load_scene_spec()). An
 /// empty list means "shared"; when that finds nothing, "procedural".
 inline std::vector<std::string> expand_scene_specs(const std::vector<std::string> &listed, const char *scenes_dir) {
-    const std::vector<std::string> fallback{"shared"};
+    if (listed.empty()) {
+        std::vector<std::string> found = default_scene_paths(scenes_dir);
+        if (found.empty()) found.push_back("procedural");
+        return found;
+    }
     std::vector<std::string> out;
-    for (const std::string &spec : listed.empty() ? fallback : listed) {
+    for (const std::string &spec : listed) {
         if (spec != "shared") {
             out.push_back(spec);
             continue;
         }
-        const std::vector<std::string> found = default_scene_paths(scenes_dir[0] ? scenes_dir : nullptr);
+        const std::vector<std::string> found = default_scene_paths(scenes_dir);
         out.insert(out.end(), found.begin(), found.end());
     }
-    if (listed.empty() && out.empty()) out.push_back("procedural");
     return out;
 }
 

@@ -178,7 +178,7 @@ template <bool AnyHit, bool Packets, class Slots>
             if (Packets ? test_packets<AnyHit>(packets + current.child, current.count, tray, pray, tmin, best)
                         : best.test_leaf(slots, prim_ids, current.child, current.count, tmin))
                 break;
-            bound = exit_bound(nray, best.tmax);
+            if (!AnyHit) bound = exit_bound(nray, best.tmax); // an any-hit query's tmax never changes
         }
         if (!best.pop_next(stack, current)) break;
     }

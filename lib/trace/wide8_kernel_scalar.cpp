@@ -36,9 +36,8 @@ inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmi
     unsigned mask = 0;
     // ray_box_from_zero() where the window starts at 0 or later, else
     // ray_box_conservative(), lane by lane.
-    const float b0 = bound;
     for (int k = 0; k < 8; ++k) {
-        float a = tmin, b = b0;
+        float a = tmin, b = bound;
         for (int ax = 0; ax < 3; ++ax) {
             const float n = (node.box[r.near[ax]][k] - r.org[ax]) * r.inv[ax];
             const float f = (node.box[r.far[ax]][k] - r.org[ax]) * r.inv_exit[ax];
