@@ -13,6 +13,10 @@
 #include "trace/ray_box.h"
 #include "trace/triangle_intersect.h"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace aacbvh {
 
 /// A ray with a NaN field, an infinite origin or direction component, or a
@@ -22,6 +26,29 @@ inline bool ray_is_valid(const aacbvh_ray &ray) {
         if (!std::isfinite(ray.org[k]) || !std::isfinite(ray.dir[k])) return false;
     if (std::isnan(ray.tmin) || std::isnan(ray.tmax)) return false;
     return ray.dir[0] != 0.0f || ray.dir[1] != 0.0f || ray.dir[2] != 0.0f;
+}
+
+/// Whether ScaledRay (below) would take the ray as it is: valid
+/// (ray_is_valid()) and its largest direction component in [2^-32, 2^32].
+/// The common case, decided with two vector compares instead of a branch
+/// per field: the origin below FLT_MAX and the direction below 2^32 in
+/// magnitude (so finite), tmin and tmax not NaN (an ordered compare is false
+/// for NaN), and some direction component at least 2^-32 (so non-zero).
+inline bool ray_is_plain(const aacbvh_ray &ray) {
+#if defined(__SSE2__)
+    static_assert(sizeof(aacbvh_ray) == 32, "org, tmin, dir, tmax: two rows of four floats");
+    const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7FFFFFFF));
+    const __m128 o = _mm_and_ps(_mm_loadu_ps(ray.org), abs_mask); // |org|, |tmin|
+    const __m128 d = _mm_and_ps(_mm_loadu_ps(ray.dir), abs_mask); // |dir|, |tmax|
+    const int ok = _mm_movemask_ps(_mm_cmple_ps(o, _mm_setr_ps(FLT_MAX, FLT_MAX, FLT_MAX, INFINITY))) &
+                   _mm_movemask_ps(_mm_cmple_ps(d, _mm_setr_ps(0x1p32f, 0x1p32f, 0x1p32f, INFINITY)));
+    const int big = _mm_movemask_ps(_mm_cmpge_ps(d, _mm_set1_ps(0x1p-32f))) & 7;
+    return ok == 15 && big != 0;
+#else
+    if (!ray_is_valid(ray)) return false;
+    const float m = std::fmax(std::fabs(ray.dir[0]), std::fmax(std::fabs(ray.dir[1]), std::fabs(ray.dir[2])));
+    return m >= 0x1p-32f && m <= 0x1p32f;
+#endif
 }
 
 /// A ray whose direction is far from unit length, traversed as its twin
@@ -36,6 +63,7 @@ struct ScaledRay {
     aacbvh_ray ray;
     int shift = 0;
 
+    ScaledRay() = default; ///< no ray yet (shift 0: unscale() changes nothing)
     explicit ScaledRay(const aacbvh_ray &r) : ray(r) {
         // Comparisons, not std::fmax (a libm call per ray): the direction is
         // finite here (ray_is_valid()).
@@ -66,6 +94,17 @@ struct ScaledRay {
         if (shift != 0 && hit.prim_id != AACBVH_INVALID_ID) hit.t = std::ldexp(hit.t, -shift);
     }
 };
+
+/// The ray a traversal runs for `ray`, or null for an invalid ray (it
+/// misses everything): the caller's own ray when it is plain
+/// (ray_is_plain(), no copy), else its scaled twin, made in `scaled`; the
+/// traversal's hit goes through scaled.unscale() afterwards either way.
+inline const aacbvh_ray *traced_ray(const aacbvh_ray &ray, ScaledRay &scaled) {
+    if (ray_is_plain(ray)) return &ray;
+    if (!ray_is_valid(ray)) return nullptr;
+    scaled = ScaledRay(ray);
+    return &scaled.ray;
+}
 
 inline void set_miss(aacbvh_hit &hit) {
     hit.t = INFINITY;

@@ -38,7 +38,8 @@ bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, fl
 
     float t_root;
     if (ray_box_conservative(box_ray, nodes[0].box, tmin, tmax, t_root)) {
-        NodeStack stack;
+        SpillBlock<StackEntry> spill;
+        NodeStack stack(spill);
         StackEntry current{0, t_root};
         for (;;) {
             const Node &node = nodes[current.node];
@@ -85,15 +86,17 @@ bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, fl
 template <bool AnyHit>
 bool query(const Bvh &bvh, const Geometry &geometry, const float *triangles, const aacbvh_ray &ray,
            aacbvh_hit &hit, TraversalCounters *counters) {
-    if (bvh.empty() || geometry.kind == GeometryKind::None || !ray_is_valid(ray)) {
+    ScaledRay scaled;
+    const aacbvh_ray *traced = traced_ray(ray, scaled);
+    if (bvh.empty() || geometry.kind == GeometryKind::None || traced == nullptr) {
         set_miss(hit);
         return false;
     }
-    const ScaledRay scaled(ray);
-    const BoxRay box_ray = make_box_ray(scaled.ray.org, scaled.ray.dir);
+    const aacbvh_ray &r = *traced;
+    const BoxRay box_ray = make_box_ray(r.org, r.dir);
     const bool found =
-        with_primitives(geometry, bvh.prim_ids.data(), triangles, scaled.ray, box_ray, [&](const auto &prims) {
-            return traverse<AnyHit>(bvh, prims, box_ray, scaled.ray.tmin, scaled.ray.tmax, hit, counters);
+        with_primitives(geometry, bvh.prim_ids.data(), triangles, r, box_ray, [&](const auto &prims) {
+            return traverse<AnyHit>(bvh, prims, box_ray, r.tmin, r.tmax, hit, counters);
         });
     if (!AnyHit) scaled.unscale(hit);
     return found;

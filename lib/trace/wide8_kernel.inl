@@ -116,12 +116,67 @@ struct NoSlots {
     bool intersect(uint32_t, float, float, float &, float &, float &) const { return false; }
 };
 
+/// Walks inner nodes from `current` (an inner node) until it holds a leaf:
+/// hit children are visited near to far, the nearest next, the others pushed
+/// farthest first; a node with no hit child pops the next pending entry
+/// (HitRecord::pop_next). False when nothing is left to visit. A loop of
+/// its own, apart from the leaf tests (calls): pops after a node with no hit
+/// child go straight to the next node test.
+template <bool AnyHit, bool Packets>
+[[gnu::always_inline]] inline bool descend(const Wide8Node *nodes, const TrianglePacket *packets, const NodeRay &r,
+                                           float tmin, float bound, const HitRecord<AnyHit> &best, EntryStack &stack,
+                                           Entry &current) {
+    do {
+        const Wide8Node &node = nodes[current.child];
+        alignas(32) float t_entry[8];
+        unsigned mask = test_children(node, r, tmin, bound, t_entry);
+        if (mask == 0) {
+            if (!best.pop_next(stack, current)) return false;
+            continue;
+        }
+        const unsigned k0 = unsigned(__builtin_ctz(mask));
+        mask &= mask - 1;
+        if (mask == 0) { // one child: nothing to order or push
+            current = Entry{node.child[k0], node.count[k0], t_entry[k0]};
+            continue;
+        }
+        if (AnyHit) { // any hit ends the query: no sorting; the largest box first
+            do {
+                const unsigned k = unsigned(__builtin_ctz(mask));
+                mask &= mask - 1;
+                stack.push(Entry{node.child[k], node.count[k], t_entry[k]});
+            } while (mask != 0);
+            current = Entry{node.child[k0], node.count[k0], t_entry[k0]};
+            continue;
+        }
+        const unsigned k1 = unsigned(__builtin_ctz(mask));
+        if ((mask & (mask - 1)) == 0) { // two: one comparison
+            const bool swap = t_entry[k1] <= t_entry[k0]; // equal: the smaller box (k1)
+            const unsigned near = swap ? k1 : k0, far = swap ? k0 : k1;
+            stack.push(Entry{node.child[far], node.count[far], t_entry[far]});
+            if (Packets || node.count[far] == 0) prefetch_child(nodes, packets, node.child[far], node.count[far]);
+            current = Entry{node.child[near], node.count[near], t_entry[near]};
+            continue;
+        }
+        // Three or more: (distance, lane) keys in ascending order.
+        alignas(32) uint32_t key[8];
+        const int n = sort_hits(mask | (1u << k0), t_entry, key);
+        for (int i = n; i-- > 1;) {
+            const unsigned k = ~key[i] & 7u;
+            stack.push(Entry{node.child[k], node.count[k], t_entry[k]});
+            if (Packets || node.count[k] == 0) prefetch_child(nodes, packets, node.child[k], node.count[k]);
+        }
+        const unsigned k = ~key[0] & 7u;
+        current = Entry{node.child[k], node.count[k], t_entry[k]};
+    } while (current.count == 0);
+    return true;
+}
+
 /// Closest hit (AnyHit false) or any hit of a valid ray over a non-empty
-/// wide tree. Hit children are visited near to far: the nearest next, the
-/// others pushed farthest first, each skipped when popped beyond the closest
-/// hit (HitRecord::pop_next). Always inlined into query(): the ray's rows
-/// then stay in registers instead of being passed through memory, and the
-/// call goes (docs/PERFORMANCE.md, change 100).
+/// wide tree: descend() to each leaf in turn, test it, pop the next pending
+/// entry within reach. Always inlined into query(): the ray's rows then stay
+/// in registers instead of being passed through memory, and the call goes
+/// (docs/PERFORMANCE.md, change 100).
 template <bool AnyHit, bool Packets, class Slots>
 [[gnu::always_inline]] inline bool traverse(const Wide8Bvh &wide, const uint32_t *prim_ids, const Slots &slots,
                                             const NodeRay &nray, const TriangleRay &tray, const PacketRay &pray,
@@ -129,57 +184,18 @@ template <bool AnyHit, bool Packets, class Slots>
     const Wide8Node *nodes = wide.nodes();
     const TrianglePacket *packets = wide.packets();
     HitRecord<AnyHit> best(tmax);
-    EntryStack stack;
+    SpillBlock<Entry> spill;
+    EntryStack stack(spill);
     Entry current{0u, 0u, tmin}; // the root, an inner node
     float bound = exit_bound(nray, best.tmax);
     for (;;) {
-        if (current.count == 0) {
-            const Wide8Node &node = nodes[current.child];
-            alignas(32) float t_entry[8];
-            unsigned mask = test_children(node, nray, tmin, bound, t_entry);
-            if (mask != 0) {
-                const unsigned k0 = unsigned(__builtin_ctz(mask));
-                mask &= mask - 1;
-                if (mask == 0) { // one child: nothing to order or push
-                    current = Entry{node.child[k0], node.count[k0], t_entry[k0]};
-                    continue;
-                }
-                if (AnyHit) { // any hit ends the query: no sorting; the largest box first
-                    do {
-                        const unsigned k = unsigned(__builtin_ctz(mask));
-                        mask &= mask - 1;
-                        stack.push(Entry{node.child[k], node.count[k], t_entry[k]});
-                    } while (mask != 0);
-                    current = Entry{node.child[k0], node.count[k0], t_entry[k0]};
-                    continue;
-                }
-                const unsigned k1 = unsigned(__builtin_ctz(mask));
-                if ((mask & (mask - 1)) == 0) { // two: one comparison
-                    const bool swap = t_entry[k1] <= t_entry[k0]; // equal: the smaller box (k1)
-                    const unsigned near = swap ? k1 : k0, far = swap ? k0 : k1;
-                    stack.push(Entry{node.child[far], node.count[far], t_entry[far]});
-                    if (Packets || node.count[far] == 0) prefetch_child(nodes, packets, node.child[far], node.count[far]);
-                    current = Entry{node.child[near], node.count[near], t_entry[near]};
-                    continue;
-                }
-                // Three or more: (distance, lane) keys in ascending order.
-                alignas(32) uint32_t key[8];
-                const int n = sort_hits(mask | (1u << k0), t_entry, key);
-                for (int i = n; i-- > 1;) {
-                    const unsigned k = ~key[i] & 7u;
-                    stack.push(Entry{node.child[k], node.count[k], t_entry[k]});
-                    if (Packets || node.count[k] == 0) prefetch_child(nodes, packets, node.child[k], node.count[k]);
-                }
-                const unsigned k = ~key[0] & 7u;
-                current = Entry{node.child[k], node.count[k], t_entry[k]};
-                continue;
-            }
-        } else {
-            if (Packets ? test_packets<AnyHit>(packets + current.child, current.count, tray, pray, tmin, best)
-                        : best.test_leaf(slots, prim_ids, current.child, current.count, tmin))
-                break;
-            if (!AnyHit) bound = exit_bound(nray, best.tmax); // an any-hit query's tmax never changes
-        }
+        if (current.count == 0 &&
+            !descend<AnyHit, Packets>(nodes, packets, nray, tmin, bound, best, stack, current))
+            break;
+        if (Packets ? test_packets<AnyHit>(packets + current.child, current.count, tray, pray, tmin, best)
+                    : best.test_leaf(slots, prim_ids, current.child, current.count, tmin))
+            break;
+        if (!AnyHit) bound = exit_bound(nray, best.tmax); // an any-hit query's tmax never changes
         if (!best.pop_next(stack, current)) break;
     }
     if (!AnyHit) write_closest(best.found, best.tmax, best.u, best.v, best.prim, hit);
@@ -192,12 +208,13 @@ template <bool AnyHit, bool Packets, class Slots>
 template <bool AnyHit, bool Counted = false>
 bool query(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray, aacbvh_hit &hit,
            uint64_t *tests = nullptr) {
-    if (wide.node_count() == 0 || geometry.kind == GeometryKind::None || !ray_is_valid(ray)) {
+    ScaledRay scaled;
+    const aacbvh_ray *traced = traced_ray(ray, scaled);
+    if (wide.node_count() == 0 || geometry.kind == GeometryKind::None || traced == nullptr) {
         set_miss(hit);
         return false;
     }
-    const ScaledRay scaled(ray);
-    const aacbvh_ray &r = scaled.ray;
+    const aacbvh_ray &r = *traced;
     const uint32_t *prim_ids = bvh.prim_ids.data();
     auto over_slots = [&](const auto &prims, const NodeRay &nray, const TriangleRay &tray) {
         if constexpr (Counted)

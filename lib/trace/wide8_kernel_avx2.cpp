@@ -30,7 +30,12 @@ namespace {
 
 struct NodeRay {
     long near[3], far[3]; ///< rows of Wide8Node::box (long: no extension per node)
-    __m256 org[3], inv[3];
+    /// -org: a slab distance is (plane + -org) * inv, which rounds exactly as
+    /// (plane - org) * inv (IEEE defines x - y as x + -y, zeros' signs
+    /// included) and, the sum commuting, takes the plane straight from memory
+    /// (one instruction a row instead of a load and a subtraction).
+    __m256 neg_org[3];
+    __m256 inv[3];
     __m256 inv_far[3];     ///< inv * kFarScale, for exits when the window starts at 0 or later
     bool window_from_zero; ///< tmin >= 0: exits as ray_box_from_zero() finds them
 };
@@ -41,7 +46,7 @@ inline NodeRay make_node_ray(const BoxRay &r, float tmin) {
         const long neg = long(r.neg[a]);
         w.near[a] = 2 * a + neg;
         w.far[a] = 2 * a + 1 - neg;
-        w.org[a] = _mm256_set1_ps(r.org[a]);
+        w.neg_org[a] = _mm256_set1_ps(-r.org[a]);
         w.inv[a] = _mm256_set1_ps(r.inv[a]);
         w.inv_far[a] = _mm256_set1_ps(r.inv_far[a]);
     }
@@ -50,9 +55,9 @@ inline NodeRay make_node_ray(const BoxRay &r, float tmin) {
 }
 
 inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float bound, float t_entry[8]) {
-    const __m256 nx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.near[0]]), r.org[0]), r.inv[0]);
-    const __m256 ny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.near[1]]), r.org[1]), r.inv[1]);
-    const __m256 nz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.near[2]]), r.org[2]), r.inv[2]);
+    const __m256 nx = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.near[0]]), r.neg_org[0]), r.inv[0]);
+    const __m256 ny = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.near[1]]), r.neg_org[1]), r.inv[1]);
+    const __m256 nz = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.near[2]]), r.neg_org[2]), r.inv[2]);
     __m256 a = _mm256_max_ps(nx, _mm256_set1_ps(tmin));
     a = _mm256_max_ps(ny, a);
     a = _mm256_max_ps(nz, a);
@@ -64,16 +69,16 @@ inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmi
     // scalar kernels' single copy with the widening branched after the min
     // chain measured 1-9 % slower here (bunny, pinned A/B, AMD EPYC).
     if (r.window_from_zero) { // ray_box_from_zero(), lane for lane
-        const __m256 fx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[0]]), r.org[0]), r.inv_far[0]);
-        const __m256 fy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[1]]), r.org[1]), r.inv_far[1]);
-        const __m256 fz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[2]]), r.org[2]), r.inv_far[2]);
+        const __m256 fx = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.far[0]]), r.neg_org[0]), r.inv_far[0]);
+        const __m256 fy = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.far[1]]), r.neg_org[1]), r.inv_far[1]);
+        const __m256 fz = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.far[2]]), r.neg_org[2]), r.inv_far[2]);
         b = _mm256_min_ps(fx, _mm256_set1_ps(bound));
         b = _mm256_min_ps(fy, b);
         b = _mm256_min_ps(fz, b);
     } else { // ray_box_conservative()'s widening, lane for lane
-        const __m256 fx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[0]]), r.org[0]), r.inv[0]);
-        const __m256 fy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[1]]), r.org[1]), r.inv[1]);
-        const __m256 fz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.box[r.far[2]]), r.org[2]), r.inv[2]);
+        const __m256 fx = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.far[0]]), r.neg_org[0]), r.inv[0]);
+        const __m256 fy = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.far[1]]), r.neg_org[1]), r.inv[1]);
+        const __m256 fz = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.far[2]]), r.neg_org[2]), r.inv[2]);
         b = _mm256_min_ps(fx, _mm256_set1_ps(bound));
         b = _mm256_min_ps(fy, b);
         b = _mm256_min_ps(fz, b);
@@ -93,27 +98,26 @@ inline __m256 rows(const float *a, const float *b) {
 /// filter_packet_sse() on eight lanes: the same operations in the same order.
 inline unsigned filter_pair(const TrianglePacket &p, const TrianglePacket &q, const PacketRaySse &r,
                             PacketEdges &edges) {
-    const __m256 ox = _mm256_set_m128(r.ox, r.ox), oy = _mm256_set_m128(r.oy, r.oy), oz = _mm256_set_m128(r.oz, r.oz);
+    const __m256 nox = _mm256_set_m128(r.nox, r.nox), noy = _mm256_set_m128(r.noy, r.noy);
+    const __m256 noz = _mm256_set_m128(r.noz, r.noz);
     const __m256 sx = _mm256_set_m128(r.sx, r.sx), sy = _mm256_set_m128(r.sy, r.sy);
-    const __m256 az = _mm256_sub_ps(rows(p.v[0][r.kz], q.v[0][r.kz]), oz);
-    const __m256 bz = _mm256_sub_ps(rows(p.v[1][r.kz], q.v[1][r.kz]), oz);
-    const __m256 cz = _mm256_sub_ps(rows(p.v[2][r.kz], q.v[2][r.kz]), oz);
-    const __m256 ax = _mm256_sub_ps(_mm256_sub_ps(rows(p.v[0][r.kx], q.v[0][r.kx]), ox), _mm256_mul_ps(sx, az));
-    const __m256 ay = _mm256_sub_ps(_mm256_sub_ps(rows(p.v[0][r.ky], q.v[0][r.ky]), oy), _mm256_mul_ps(sy, az));
-    const __m256 bx = _mm256_sub_ps(_mm256_sub_ps(rows(p.v[1][r.kx], q.v[1][r.kx]), ox), _mm256_mul_ps(sx, bz));
-    const __m256 by = _mm256_sub_ps(_mm256_sub_ps(rows(p.v[1][r.ky], q.v[1][r.ky]), oy), _mm256_mul_ps(sy, bz));
-    const __m256 cx = _mm256_sub_ps(_mm256_sub_ps(rows(p.v[2][r.kx], q.v[2][r.kx]), ox), _mm256_mul_ps(sx, cz));
-    const __m256 cy = _mm256_sub_ps(_mm256_sub_ps(rows(p.v[2][r.ky], q.v[2][r.ky]), oy), _mm256_mul_ps(sy, cz));
+    const __m256 az = _mm256_add_ps(rows(p.v[0][r.kz], q.v[0][r.kz]), noz);
+    const __m256 bz = _mm256_add_ps(rows(p.v[1][r.kz], q.v[1][r.kz]), noz);
+    const __m256 cz = _mm256_add_ps(rows(p.v[2][r.kz], q.v[2][r.kz]), noz);
+    const __m256 ax = _mm256_sub_ps(_mm256_add_ps(rows(p.v[0][r.kx], q.v[0][r.kx]), nox), _mm256_mul_ps(sx, az));
+    const __m256 ay = _mm256_sub_ps(_mm256_add_ps(rows(p.v[0][r.ky], q.v[0][r.ky]), noy), _mm256_mul_ps(sy, az));
+    const __m256 bx = _mm256_sub_ps(_mm256_add_ps(rows(p.v[1][r.kx], q.v[1][r.kx]), nox), _mm256_mul_ps(sx, bz));
+    const __m256 by = _mm256_sub_ps(_mm256_add_ps(rows(p.v[1][r.ky], q.v[1][r.ky]), noy), _mm256_mul_ps(sy, bz));
+    const __m256 cx = _mm256_sub_ps(_mm256_add_ps(rows(p.v[2][r.kx], q.v[2][r.kx]), nox), _mm256_mul_ps(sx, cz));
+    const __m256 cy = _mm256_sub_ps(_mm256_add_ps(rows(p.v[2][r.ky], q.v[2][r.ky]), noy), _mm256_mul_ps(sy, cz));
     const __m256 eu = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
     const __m256 ev = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
     const __m256 ew = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
     const __m256 zero = _mm256_setzero_ps();
-    const __m256 neg = _mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(eu, zero, _CMP_LT_OS), _mm256_cmp_ps(ev, zero, _CMP_LT_OS)),
-                                    _mm256_cmp_ps(ew, zero, _CMP_LT_OS));
-    const __m256 pos = _mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(eu, zero, _CMP_GT_OS), _mm256_cmp_ps(ev, zero, _CMP_GT_OS)),
-                                    _mm256_cmp_ps(ew, zero, _CMP_GT_OS));
+    const __m256 lo = _mm256_min_ps(_mm256_min_ps(eu, ev), ew), hi = _mm256_max_ps(_mm256_max_ps(eu, ev), ew);
     const __m256 ordered = _mm256_and_ps(_mm256_cmp_ps(eu, ev, _CMP_ORD_Q), _mm256_cmp_ps(ew, ew, _CMP_ORD_Q));
-    const __m256 miss = _mm256_and_ps(_mm256_and_ps(neg, pos), ordered);
+    const __m256 miss = _mm256_and_ps(
+        _mm256_and_ps(_mm256_cmp_ps(lo, zero, _CMP_LT_OS), _mm256_cmp_ps(hi, zero, _CMP_GT_OS)), ordered);
     const unsigned keep = ~unsigned(_mm256_movemask_ps(miss)) & 255u;
     if (keep != 0) {
         const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));

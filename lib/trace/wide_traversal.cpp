@@ -146,7 +146,8 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
     const uint32_t *prim_ids = bvh.prim_ids.data();
     HitRecord<AnyHit> best(tmax);
 
-    EntryStack stack;
+    SpillBlock<Entry> spill;
+    EntryStack stack(spill);
     Entry current{0u, 0u, tmin}; // the root, an inner wide node
     for (;;) {
         if (current.count == 0) {
@@ -228,19 +229,21 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
 template <bool AnyHit>
 bool query(const WideBvh &wide, const Bvh &bvh, const Geometry &geometry, const float *triangles,
            const aacbvh_ray &ray, aacbvh_hit &hit, TraversalCounters *counters) {
-    if (wide.node_count() == 0 || geometry.kind == GeometryKind::None || !ray_is_valid(ray)) {
+    ScaledRay scaled;
+    const aacbvh_ray *traced = traced_ray(ray, scaled);
+    if (wide.node_count() == 0 || geometry.kind == GeometryKind::None || traced == nullptr) {
         set_miss(hit);
         return false;
     }
-    const ScaledRay scaled(ray);
-    const BoxRay box_ray = make_box_ray(scaled.ray.org, scaled.ray.dir);
+    const aacbvh_ray &r = *traced;
+    const BoxRay box_ray = make_box_ray(r.org, r.dir);
     const WideRay wide_ray = make_wide_ray(box_ray);
     const bool found =
-        with_primitives(geometry, bvh.prim_ids.data(), triangles, scaled.ray, box_ray, [&](const auto &prims) {
+        with_primitives(geometry, bvh.prim_ids.data(), triangles, r, box_ray, [&](const auto &prims) {
             if (counters)
                 return traverse<AnyHit>(wide, bvh, count_tests(prims, &counters->primitive_tests), wide_ray,
-                                        scaled.ray.tmin, scaled.ray.tmax, hit);
-            return traverse<AnyHit>(wide, bvh, prims, wide_ray, scaled.ray.tmin, scaled.ray.tmax, hit);
+                                        r.tmin, r.tmax, hit);
+            return traverse<AnyHit>(wide, bvh, prims, wide_ray, r.tmin, r.tmax, hit);
         });
     if (!AnyHit) scaled.unscale(hit);
     return found;
