@@ -8,7 +8,7 @@
 //     slab test: the binary layout's ray_box_conservative() lane for lane,
 //     or, where the window starts at 0 or later, exits widened through
 //     kFarScale; trace/ray_box.h), its clipped entry distance in t_entry[k];
-//     `bound` is exit_bound(ray, tmax) below;
+//     `bound` is exit_bound(ray, record) below;
 //   int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);
 //     the hit lanes' (distance, 7 - lane) keys, ascending (sort_hits_insertion()
 //     below, or a sorting network);
@@ -27,9 +27,12 @@
 
 /// What a node test compares the children's exit distances with:
 /// exit_reach(tmax) where the window starts at 0 or later (the exits are
-/// widened through inv_far), else tmax (the exits widened afterwards). It
-/// changes only with tmax, so traverse() keeps it between leaves.
-inline float exit_bound(const NodeRay &r, float tmax) { return r.window_from_zero ? exit_reach(tmax) : tmax; }
+/// widened through inv_far; the record keeps it beside tmax), else tmax (the
+/// exits widened afterwards). It changes only with tmax, so traverse() keeps
+/// it between leaves.
+template <bool AnyHit> inline float exit_bound(const NodeRay &r, const HitRecord<AnyHit> &best) {
+    return r.window_from_zero ? best.reach() : best.tmax;
+}
 
 /// A child (node index, or leaf: first packet or slot, and count) with its
 /// entry distance.
@@ -187,7 +190,7 @@ template <bool AnyHit, bool Packets, class Slots>
     SpillBlock<Entry> spill;
     EntryStack stack(spill);
     Entry current{0u, 0u, tmin}; // the root, an inner node
-    float bound = exit_bound(nray, best.tmax);
+    float bound = exit_bound(nray, best);
     for (;;) {
         if (current.count == 0 &&
             !descend<AnyHit, Packets>(nodes, packets, nray, tmin, bound, best, stack, current))
@@ -195,7 +198,7 @@ template <bool AnyHit, bool Packets, class Slots>
         if (Packets ? test_packets<AnyHit>(packets + current.child, current.count, tray, pray, tmin, best)
                     : best.test_leaf(slots, prim_ids, current.child, current.count, tmin))
             break;
-        if (!AnyHit) bound = exit_bound(nray, best.tmax); // an any-hit query's tmax never changes
+        if (!AnyHit) bound = exit_bound(nray, best); // an any-hit query's tmax never changes
         if (!best.pop_next(stack, current)) break;
     }
     if (!AnyHit) write_closest(best.found, best.tmax, best.u, best.v, best.prim, hit);
