@@ -30,8 +30,9 @@ public:
 
     const Entry &operator[](size_t i) const { return data_[i]; }
     /// Stores `e` at index i <= the count stored so far, growing the block
-    /// (doubling) when needed; throws std::bad_alloc when it cannot.
-    [[gnu::noinline, gnu::cold]] static void put(SpillBlock &block, size_t i, const Entry &e) {
+    /// (doubling) when needed; throws std::bad_alloc when it cannot. `e` by
+    /// value: a reference would make every push build its entry in memory.
+    [[gnu::noinline, gnu::cold]] static void put(SpillBlock &block, size_t i, Entry e) {
         if (i == block.capacity_) {
             const size_t capacity = block.capacity_ == 0 ? 64 : 2 * block.capacity_;
             void *grown = std::realloc(block.data_, capacity * sizeof(Entry));
