@@ -1,7 +1,8 @@
 // The 8-wide traversal, included once by each kernel's file
 // (wide8_kernel_<isa>.cpp) inside that kernel's own namespace and target
 // region, after the file has defined its node and packet tests:
-//   struct NodeRay;     NodeRay make_node_ray(const BoxRay &, float tmin);
+//   struct NodeRay;     NodeRay make_node_ray(const aacbvh_ray &);
+//     the node test's per-ray rows, the values make_box_ray() gives;
 //   unsigned test_children(const Wide8Node &, const NodeRay &, float tmin,
 //                          float bound, float t_entry[8]);
 //     bit k set when child k may be hit within [tmin, tmax] (a conservative
@@ -226,15 +227,14 @@ bool query(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const
         else
             return traverse<AnyHit, false>(wide, prim_ids, prims, nray, tray, PacketRay{}, r.tmin, r.tmax, hit);
     };
-    // The box ray is made in each branch: only box primitives keep all of it
-    // (its SSE rows included); for triangles the compiler keeps what the node
-    // rows need.
+    // Only box primitives need the box ray (its SSE rows included); the node
+    // rows come from the ray itself (make_node_ray()).
     bool found;
     if (geometry.kind == GeometryKind::Boxes) {
         const BoxRay box_ray = make_box_ray(r.org, r.dir);
-        found = over_slots(BoxPrimitives{geometry, prim_ids, box_ray}, make_node_ray(box_ray, r.tmin), TriangleRay{});
+        found = over_slots(BoxPrimitives{geometry, prim_ids, box_ray}, make_node_ray(r), TriangleRay{});
     } else {
-        const NodeRay nray = make_node_ray(make_box_ray(r.org, r.dir), r.tmin);
+        const NodeRay nray = make_node_ray(r);
         const TriangleRay tray = make_triangle_ray(r.org, r.dir);
         if (wide.has_packets())
             found = traverse<AnyHit, true>(wide, prim_ids, NoSlots{}, nray, tray, make_packet_ray(tray), r.tmin,

@@ -40,17 +40,28 @@ struct NodeRay {
     bool window_from_zero; ///< tmin >= 0: exits as ray_box_from_zero() finds them
 };
 
-inline NodeRay make_node_ray(const BoxRay &r, float tmin) {
+/// The node rows straight from the ray, four lanes at a time: the same
+/// values as make_box_ray() makes one by one (1 / dir and its product with
+/// kFarScale round alike in either form; -org is exact; the direction's sign
+/// bits pick the rows), without its scalar divisions and stores.
+inline NodeRay make_node_ray(const aacbvh_ray &ray) {
     NodeRay w;
+    const __m128 org = _mm_loadu_ps(ray.org); // x, y, z, tmin
+    const __m128 dir = _mm_loadu_ps(ray.dir); // x, y, z, tmax (lane 3 unused below)
+    const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), dir);
+    const __m128 inv_far = _mm_mul_ps(inv, _mm_set1_ps(kFarScale));
+    const __m128 neg_org = _mm_xor_ps(org, _mm_set1_ps(-0.0f));
+    const int neg = _mm_movemask_ps(dir);
     for (int a = 0; a < 3; ++a) {
-        const long neg = long(r.neg[a]);
-        w.near[a] = 2 * a + neg;
-        w.far[a] = 2 * a + 1 - neg;
-        w.neg_org[a] = _mm256_set1_ps(-r.org[a]);
-        w.inv[a] = _mm256_set1_ps(r.inv[a]);
-        w.inv_far[a] = _mm256_set1_ps(r.inv_far[a]);
+        const __m256i lane = _mm256_set1_epi32(a);
+        const long n = long((neg >> a) & 1);
+        w.near[a] = 2 * a + n;
+        w.far[a] = 2 * a + 1 - n;
+        w.neg_org[a] = _mm256_permutevar8x32_ps(_mm256_castps128_ps256(neg_org), lane);
+        w.inv[a] = _mm256_permutevar8x32_ps(_mm256_castps128_ps256(inv), lane);
+        w.inv_far[a] = _mm256_permutevar8x32_ps(_mm256_castps128_ps256(inv_far), lane);
     }
-    w.window_from_zero = tmin >= 0.0f;
+    w.window_from_zero = ray.tmin >= 0.0f;
     return w;
 }
 
