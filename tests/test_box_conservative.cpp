@@ -26,22 +26,13 @@ extern "C" {
 #include "trace/ray_box.h"
 #include "trace/triangle_intersect.h"
 
+#include "xorshift_rng.h"
+
 namespace {
 
 using namespace aacbvh;
 
-struct Rng {
-    uint64_t s;
-    uint64_t next() {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        return s;
-    }
-    float unit() { return float(double(next() >> 40) / 16777216.0); }
-    float range(float lo, float hi) { return lo + (hi - lo) * unit(); }
-    uint32_t below(uint32_t n) { return uint32_t(next() % n); }
-};
+using Rng = XorshiftRng;
 
 struct Counts {
     uint64_t rays = 0, hits = 0, axis_aligned_hits = 0, on_surface = 0, from_zero = 0;

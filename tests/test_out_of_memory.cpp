@@ -42,6 +42,8 @@ extern "C" {
 // Global operator new/delete: count live blocks, consult the countdown.
 // ---------------------------------------------------------------------------
 
+#include "xorshift_rng.h"
+
 namespace {
 
 std::atomic<int64_t> g_live_blocks{0};
@@ -171,25 +173,17 @@ struct Scene {
     std::vector<aacbvh_ray> rays;
 };
 
-/// Uniform floats in [0, 1) from a xorshift64 state.
-struct Xorshift {
-    uint64_t x;
-    float next() {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        return float(x >> 40) / float(1 << 24);
-    }
-};
+/// Uniform floats in [0, 1) from unit().
+using Xorshift = XorshiftRng;
 
 /// `n` small triangles around random centres in [lo, lo + span)^3, each of
 /// its own three vertices, appended to vertices / indices.
 void random_soup(size_t n, float lo, float span, float size, Xorshift &rng, std::vector<float> &vertices,
                  std::vector<uint32_t> &indices) {
     for (size_t t = 0; t < n; ++t) {
-        const float c[3] = {lo + span * rng.next(), lo + span * rng.next(), lo + span * rng.next()};
+        const float c[3] = {lo + span * rng.unit(), lo + span * rng.unit(), lo + span * rng.unit()};
         for (int j = 0; j < 3; ++j) {
-            for (int k = 0; k < 3; ++k) vertices.push_back(c[k] + (rng.next() - 0.5f) * size);
+            for (int k = 0; k < 3; ++k) vertices.push_back(c[k] + (rng.unit() - 0.5f) * size);
             indices.push_back(uint32_t(vertices.size() / 3 - 1));
         }
     }
@@ -199,7 +193,7 @@ const Scene &scene() {
     static const Scene s = [] {
         Scene sc;
         Xorshift rng{88172645463325252ull};
-        auto next = [&rng] { return rng.next(); };
+        auto next = [&rng] { return rng.unit(); };
         random_soup(2000, -1.0f, 2.0f, 0.2f, rng, sc.vertices, sc.indices);
         for (int i = 0; i < 256; ++i) {
             aacbvh_ray r;

@@ -26,19 +26,13 @@ extern "C" {
 #include "trace/ray_primitives.h"
 #include "trace/spill_stack.h"
 
+#include "xorshift_rng.h"
+
 namespace {
 
 using namespace aacbvh;
 
-struct Rng {
-    uint64_t s;
-    uint64_t next() {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        return s;
-    }
-};
+using Rng = XorshiftRng;
 
 /// The definition ray_is_plain() must agree with.
 bool plain_by_definition(const aacbvh_ray &ray) { return ray_is_valid(ray) && ScaledRay(ray).shift == 0; }
