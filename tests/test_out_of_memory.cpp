@@ -37,12 +37,11 @@ extern "C" {
 
 #include "core/memory.h"
 #include "test_support.h" // TS_UNDER_TSAN
+#include "xorshift_rng.h"
 
 // ---------------------------------------------------------------------------
 // Global operator new/delete: count live blocks, consult the countdown.
 // ---------------------------------------------------------------------------
-
-#include "xorshift_rng.h"
 
 namespace {
 
