@@ -220,27 +220,26 @@ bool query(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const
     }
     const aacbvh_ray &r = *traced;
     const uint32_t *prim_ids = bvh.prim_ids.data();
-    auto over_slots = [&](const auto &prims, const NodeRay &nray, const TriangleRay &tray) {
+    const NodeRay nray = make_node_ray(r);
+    auto over_slots = [&](const auto &prims, const TriangleRay &tray) {
         if constexpr (Counted)
             return traverse<AnyHit, false>(wide, prim_ids, count_tests(prims, tests), nray, tray, PacketRay{},
                                            r.tmin, r.tmax, hit);
         else
             return traverse<AnyHit, false>(wide, prim_ids, prims, nray, tray, PacketRay{}, r.tmin, r.tmax, hit);
     };
-    // Only box primitives need the box ray (its SSE rows included); the node
-    // rows come from the ray itself (make_node_ray()).
+    // Only box primitives need the box ray (its SSE rows included).
     bool found;
     if (geometry.kind == GeometryKind::Boxes) {
         const BoxRay box_ray = make_box_ray(r.org, r.dir);
-        found = over_slots(BoxPrimitives{geometry, prim_ids, box_ray}, make_node_ray(r), TriangleRay{});
+        found = over_slots(BoxPrimitives{geometry, prim_ids, box_ray}, TriangleRay{});
     } else {
-        const NodeRay nray = make_node_ray(r);
         const TriangleRay tray = make_triangle_ray(r.org, r.dir);
         if (wide.has_packets())
             found = traverse<AnyHit, true>(wide, prim_ids, NoSlots{}, nray, tray, make_packet_ray(tray), r.tmin,
                                            r.tmax, hit);
         else
-            found = over_slots(TrianglePrimitives{geometry, prim_ids, tray}, nray, tray);
+            found = over_slots(TrianglePrimitives{geometry, prim_ids, tray}, tray);
     }
     if (!AnyHit) scaled.unscale(hit);
     return found;

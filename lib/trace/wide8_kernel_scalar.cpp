@@ -19,7 +19,9 @@ struct NodeRay {
     bool window_from_zero; ///< tmin >= 0: exits as ray_box_from_zero() finds them
 };
 
-inline NodeRay make_node_ray_from(const BoxRay &r, float tmin) {
+inline NodeRay make_node_ray(const aacbvh_ray &ray) {
+    const BoxRay r = make_box_ray(ray.org, ray.dir);
+    const float tmin = ray.tmin;
     NodeRay w;
     for (int a = 0; a < 3; ++a) {
         w.near[a] = 2 * a + (r.neg[a] ? 1 : 0);
@@ -31,8 +33,6 @@ inline NodeRay make_node_ray_from(const BoxRay &r, float tmin) {
     for (int a = 0; a < 3; ++a) w.inv_exit[a] = w.window_from_zero ? r.inv_far[a] : r.inv[a];
     return w;
 }
-
-inline NodeRay make_node_ray(const aacbvh_ray &r) { return make_node_ray_from(make_box_ray(r.org, r.dir), r.tmin); }
 
 inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float bound, float t_entry[8]) {
     unsigned mask = 0;

@@ -25,7 +25,9 @@ struct NodeRay {
     bool window_from_zero; ///< tmin >= 0: exits as ray_box_from_zero() finds them
 };
 
-inline NodeRay make_node_ray_from(const BoxRay &r, float tmin) {
+inline NodeRay make_node_ray(const aacbvh_ray &ray) {
+    const BoxRay r = make_box_ray(ray.org, ray.dir);
+    const float tmin = ray.tmin;
     NodeRay w;
     for (int a = 0; a < 3; ++a) {
         w.near[a] = 2 * a + (r.neg[a] ? 1 : 0);
@@ -37,8 +39,6 @@ inline NodeRay make_node_ray_from(const BoxRay &r, float tmin) {
     for (int a = 0; a < 3; ++a) w.inv_exit[a] = _mm_set1_ps(w.window_from_zero ? r.inv_far[a] : r.inv[a]);
     return w;
 }
-
-inline NodeRay make_node_ray(const aacbvh_ray &r) { return make_node_ray_from(make_box_ray(r.org, r.dir), r.tmin); }
 
 /// Lanes [h, h + 4) of the node test (see wide_traversal.cpp's four-box test;
 /// exits as in the AVX2 kernel). `bound` is the window's end as the exits
