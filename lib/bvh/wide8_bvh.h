@@ -57,6 +57,16 @@ struct alignas(16) TrianglePacket {
 
 static_assert(sizeof(TrianglePacket) == 160, "TrianglePacket must be 160 bytes");
 
+/// One lane's triangle of a packet, read where it lies: the vertex source of
+/// the exact finish (trace/triangle_intersect.h, VertexPointers). Defined
+/// here, outside the kernels' target regions, so that the shared templates
+/// instantiated over it stay baseline code and inline it.
+struct PacketLane {
+    const TrianglePacket *packet;
+    unsigned k;
+    float at(int i, int a) const { return packet->v[i][a][k]; }
+};
+
 /// A packet test's single-precision edge functions per lane (see
 /// intersect_triangle_edges() in trace/triangle_intersect.h), for up to two
 /// packets tested together (lanes 4-7: the second).

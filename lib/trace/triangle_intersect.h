@@ -101,12 +101,39 @@ inline bool has_area(const float *p0, const float *p1, const float *p2) {
     return std::isfinite(t);
 }
 
-inline bool triangle_distance(const TriangleRay &r, const float *p0, const float *p1, const float *p2, double &t) {
+/// Where a triangle's vertices are read from: at(i, a) is coordinate a of
+/// vertex i. The distance and the edge finish below are written once over
+/// it, so a caller can read the vertices where they lie (three pointers
+/// here; a packet lane in trace/wide8_kernel.inl) without copying them into
+/// arrays whose addresses would keep them in memory.
+struct VertexPointers {
+    const float *p[3];
+    float at(int i, int a) const { return p[i][a]; }
+};
+
+/// The vertices of `tri` copied into p[3][3], for the rare paths that take
+/// pointers.
+template <class Vertices> inline void copy_vertices(const Vertices &tri, float p[3][3]) {
+    for (int i = 0; i < 3; ++i)
+        for (int a = 0; a < 3; ++a) p[i][a] = tri.at(i, a);
+}
+
+/// clamp_to_triangle_box() for any vertex source: out of line, so the hot
+/// path never needs the vertices in memory.
+template <class Vertices>
+[[gnu::noinline, gnu::cold]] bool clamp_to_box_of(const TriangleRay &r, const Vertices &tri, double plane, double &t) {
+    float p[3][3];
+    copy_vertices(tri, p);
+    return clamp_to_triangle_box(r, p[0], p[1], p[2], plane, t);
+}
+
+template <class Vertices> inline bool triangle_distance_of(const TriangleRay &r, const Vertices &tri, double &t) {
     double e1[3], e2[3], w[3];
     for (int k = 0; k < 3; ++k) {
-        e1[k] = double(p1[k]) - double(p0[k]);
-        e2[k] = double(p2[k]) - double(p0[k]);
-        w[k] = double(p0[k]) - r.org_d[k];
+        const double p0 = tri.at(0, k);
+        e1[k] = double(tri.at(1, k)) - p0;
+        e2[k] = double(tri.at(2, k)) - p0;
+        w[k] = p0 - r.org_d[k];
     }
     const double n0 = e1[1] * e2[2] - e1[2] * e2[1];
     const double n1 = e1[2] * e2[0] - e1[0] * e2[2];
@@ -122,7 +149,11 @@ inline bool triangle_distance(const TriangleRay &r, const float *p0, const float
         inside = inside && x >= lo && x <= hi;
     }
     if (inside) return true;
-    return clamp_to_triangle_box(r, p0, p1, p2, t, t);
+    return clamp_to_box_of(r, tri, t, t);
+}
+
+inline bool triangle_distance(const TriangleRay &r, const float *p0, const float *p1, const float *p2, double &t) {
+    return triangle_distance_of(r, VertexPointers{{p0, p1, p2}}, t);
 }
 
 /// triangle_distance() rounded to the float that is reported, and whether
@@ -130,12 +161,17 @@ inline bool triangle_distance(const TriangleRay &r, const float *p0, const float
 /// not to the double before rounding: a traversal's window ends at the best t
 /// reported so far, and a second triangle at exactly that t (a tie, decided
 /// by prim_id) must be accepted whichever was found first.
-inline bool reported_distance(const TriangleRay &r, const float *p0, const float *p1, const float *p2, float tmin,
-                              float tmax, float &t) {
+template <class Vertices>
+inline bool reported_distance_of(const TriangleRay &r, const Vertices &tri, float tmin, float tmax, float &t) {
     double th;
-    if (!triangle_distance(r, p0, p1, p2, th) || !(std::fabs(th) <= FLT_MAX)) return false;
+    if (!triangle_distance_of(r, tri, th) || !(std::fabs(th) <= FLT_MAX)) return false;
     t = float(th);
     return t >= tmin && t <= tmax;
+}
+
+inline bool reported_distance(const TriangleRay &r, const float *p0, const float *p1, const float *p2, float tmin,
+                              float tmax, float &t) {
+    return reported_distance_of(r, VertexPointers{{p0, p1, p2}}, tmin, tmax, t);
 }
 
 /// The tail of intersect_triangle() in double precision, from the same sheared
@@ -218,29 +254,52 @@ inline bool intersect_triangle(const TriangleRay &r, const float *p0, const floa
     return true;
 }
 
+/// intersect_triangle() on a copy of `tri`'s vertices: the edge finish's
+/// rare cases, out of line.
+template <class Vertices>
+[[gnu::noinline, gnu::cold]] bool intersect_triangle_of(const TriangleRay &r, const Vertices &tri, float tmin,
+                                                         float tmax, float &t, float &u, float &v) {
+    float p[3][3];
+    copy_vertices(tri, p);
+    return intersect_triangle(r, p[0], p[1], p[2], tmin, tmax, t, u, v);
+}
+
+/// has_area() on a copy of `tri`'s vertices, out of line (rare).
+template <class Vertices> [[gnu::noinline, gnu::cold]] bool has_area_of(const Vertices &tri) {
+    float p[3][3];
+    copy_vertices(tri, p);
+    return has_area(p[0], p[1], p[2]);
+}
+
 /// intersect_triangle() for a caller that has already computed the
 /// single-precision edge functions eu, ev, ew and mag (the sum of the
 /// products' magnitudes, |cx by| + |ax cy| + |bx ay|) by the same operations
 /// in the same order, e.g. for four triangles at once with SIMD: the same
 /// result, without computing them again. The rare cases (values out of
 /// float range, det overflowing) go to intersect_triangle() itself.
-inline bool intersect_triangle_edges(const TriangleRay &r, const float *p0, const float *p1, const float *p2,
-                                     float eu, float ev, float ew, float mag, float tmin, float tmax, float &t,
-                                     float &u, float &v) {
+template <class Vertices>
+inline bool intersect_triangle_edges_of(const TriangleRay &r, const Vertices &tri, float eu, float ev, float ew,
+                                        float mag, float tmin, float tmax, float &t, float &u, float &v) {
     const float mu = std::fabs(eu), mv = std::fabs(ev), mw = std::fabs(ew);
     const bool in_range = mu >= FLT_MIN && mv >= FLT_MIN && mw >= FLT_MIN &&
                           mu <= FLT_MAX && mv <= FLT_MAX && mw <= FLT_MAX;
-    if (!in_range) return intersect_triangle(r, p0, p1, p2, tmin, tmax, t, u, v);
+    if (!in_range) return intersect_triangle_of(r, tri, tmin, tmax, t, u, v);
     if ((eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f))
         return false;
     const float det = eu + ev + ew;
-    if (mu + mv + mw <= 0x1p-18f * mag && !has_area(p0, p1, p2)) return false;
-    if (!std::isfinite(det)) return intersect_triangle(r, p0, p1, p2, tmin, tmax, t, u, v);
-    if (!reported_distance(r, p0, p1, p2, tmin, tmax, t)) return false;
+    if (mu + mv + mw <= 0x1p-18f * mag && !has_area_of(tri)) return false;
+    if (!std::isfinite(det)) return intersect_triangle_of(r, tri, tmin, tmax, t, u, v);
+    if (!reported_distance_of(r, tri, tmin, tmax, t)) return false;
     const float inv_det = 1.0f / det;
     u = ev * inv_det;
     v = ew * inv_det;
     return true;
+}
+
+inline bool intersect_triangle_edges(const TriangleRay &r, const float *p0, const float *p1, const float *p2,
+                                     float eu, float ev, float ew, float mag, float tmin, float tmax, float &t,
+                                     float &u, float &v) {
+    return intersect_triangle_edges_of(r, VertexPointers{{p0, p1, p2}}, eu, ev, ew, mag, tmin, tmax, t, u, v);
 }
 
 } // namespace aacbvh

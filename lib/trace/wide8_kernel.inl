@@ -21,7 +21,7 @@
 //     of intersect_triangle() prove that lane k misses (they are computed by
 //     the same operations, so the lanes it keeps are a superset of the
 //     hits); the kept lanes' edge functions are stored in the PacketEdges.
-// The lanes a packet keeps are then finished by intersect_triangle_edges(),
+// The lanes a packet keeps are then finished by intersect_triangle_edges_of(),
 // which decides as intersect_triangle() would on the same values, so every
 // kernel reports exactly the hits of the binary traversal.
 // No lambdas here: a target region does not reach into them.
@@ -99,16 +99,12 @@ inline bool test_packets(const TrianglePacket *packets, uint32_t count, const Tr
         while (lanes != 0) {
             const unsigned lane = unsigned(__builtin_ctz(lanes));
             lanes &= lanes - 1;
-            const TrianglePacket &p = packets[j + (lane >> 2)];
-            const unsigned k = lane & 3u;
-            const float a[3] = {p.v[0][0][k], p.v[0][1][k], p.v[0][2][k]};
-            const float b[3] = {p.v[1][0][k], p.v[1][1][k], p.v[1][2][k]};
-            const float c[3] = {p.v[2][0][k], p.v[2][1][k], p.v[2][2][k]};
+            const PacketLane tri{packets + j + (lane >> 2), lane & 3u};
             float t, u, v;
-            if (!intersect_triangle_edges(tray, a, b, c, e.eu[lane], e.ev[lane], e.ew[lane], e.mag[lane], tmin,
-                                          best.tmax, t, u, v))
+            if (!intersect_triangle_edges_of(tray, tri, e.eu[lane], e.ev[lane], e.ew[lane], e.mag[lane], tmin,
+                                             best.tmax, t, u, v))
                 continue;
-            if (best.offer(t, u, v, p.prim[k])) return true;
+            if (best.offer(t, u, v, tri.packet->prim[tri.k])) return true;
         }
         j += used;
     }
