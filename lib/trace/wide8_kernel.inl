@@ -3,11 +3,13 @@
 // region, after the file has defined its node and packet tests:
 //   struct NodeRay;     NodeRay make_node_ray(const aacbvh_ray &);
 //     the node test's per-ray rows, the values make_box_ray() gives;
+//   template <bool FromZero>
 //   unsigned test_children(const Wide8Node &, const NodeRay &, float tmin,
 //                          float bound, float t_entry[8]);
 //     bit k set when child k may be hit within [tmin, tmax] (a conservative
 //     slab test: the binary layout's ray_box_conservative() lane for lane,
-//     or, where the window starts at 0 or later, exits widened through
+//     or, where the window starts at 0 or later (FromZero, the ray's
+//     window_from_zero as a constant of the loop), exits widened through
 //     kFarScale; trace/ray_box.h), its clipped entry distance in t_entry[k];
 //     `bound` is exit_bound(ray, record) below;
 //   int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);
@@ -122,14 +124,14 @@ struct NoSlots {
 /// (HitRecord::pop_next). False when nothing is left to visit. A loop of
 /// its own, apart from the leaf tests (calls): pops after a node with no hit
 /// child go straight to the next node test.
-template <bool AnyHit, bool Packets>
+template <bool AnyHit, bool Packets, bool FromZero>
 [[gnu::always_inline]] inline bool descend(const Wide8Node *nodes, const TrianglePacket *packets, const NodeRay &r,
                                            float tmin, float bound, const HitRecord<AnyHit> &best, EntryStack &stack,
                                            Entry &current) {
     do {
         const Wide8Node &node = nodes[current.child];
         alignas(32) float t_entry[8];
-        unsigned mask = test_children(node, r, tmin, bound, t_entry);
+        unsigned mask = test_children<FromZero>(node, r, tmin, bound, t_entry);
         if (mask == 0) {
             if (!best.pop_next(stack, current)) return false;
             continue;
@@ -189,8 +191,12 @@ template <bool AnyHit, bool Packets, class Slots>
     Entry current{0u, 0u, tmin}; // the root, an inner node
     float bound = exit_bound(nray, best);
     for (;;) {
+        // The window's form is a constant of each inner loop: no test of it
+        // at every node.
         if (current.count == 0 &&
-            !descend<AnyHit, Packets>(nodes, packets, nray, tmin, bound, best, stack, current))
+            !(nray.window_from_zero
+                  ? descend<AnyHit, Packets, true>(nodes, packets, nray, tmin, bound, best, stack, current)
+                  : descend<AnyHit, Packets, false>(nodes, packets, nray, tmin, bound, best, stack, current)))
             break;
         if (Packets ? test_packets<AnyHit>(packets + current.child, current.count, tray, pray, tmin, best)
                     : best.test_leaf(slots, prim_ids, current.child, current.count, tmin))

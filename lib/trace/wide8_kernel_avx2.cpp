@@ -65,6 +65,7 @@ inline NodeRay make_node_ray(const aacbvh_ray &ray) {
     return w;
 }
 
+template <bool FromZero>
 inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float bound, float t_entry[8]) {
     const __m256 nx = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.near[0]]), r.neg_org[0]), r.inv[0]);
     const __m256 ny = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.near[1]]), r.neg_org[1]), r.inv[1]);
@@ -79,7 +80,7 @@ inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmi
     // Two copies of the exit loads, one per form, on purpose: the SSE2 and
     // scalar kernels' single copy with the widening branched after the min
     // chain measured 1-9 % slower here (bunny, pinned A/B, AMD EPYC).
-    if (r.window_from_zero) { // ray_box_from_zero(), lane for lane
+    if (FromZero) { // ray_box_from_zero(), lane for lane
         const __m256 fx = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.far[0]]), r.neg_org[0]), r.inv_far[0]);
         const __m256 fy = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.far[1]]), r.neg_org[1]), r.inv_far[1]);
         const __m256 fz = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.far[2]]), r.neg_org[2]), r.inv_far[2]);

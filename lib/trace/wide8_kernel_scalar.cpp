@@ -34,6 +34,7 @@ inline NodeRay make_node_ray(const aacbvh_ray &ray) {
     return w;
 }
 
+template <bool FromZero>
 inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float bound, float t_entry[8]) {
     unsigned mask = 0;
     // ray_box_from_zero() where the window starts at 0 or later, else
@@ -46,7 +47,7 @@ inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmi
             a = n > a ? n : a;
             b = f < b ? f : b;
         }
-        if (!r.window_from_zero) b += std::fabs(b) * kTwoGamma3;
+        if (!FromZero) b += std::fabs(b) * kTwoGamma3;
         t_entry[k] = a;
         if (a <= b) mask |= 1u << k;
     }

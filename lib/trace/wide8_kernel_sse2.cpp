@@ -44,6 +44,7 @@ inline NodeRay make_node_ray(const aacbvh_ray &ray) {
 /// exits as in the AVX2 kernel). `bound` is the window's end as the exits
 /// are compared with it: exit_reach(tmax) when the window starts at 0 or
 /// later, else tmax, the exits then widened by their magnitude.
+template <bool FromZero>
 inline unsigned test_four(const Wide8Node &node, const NodeRay &r, int h, __m128 tmin, __m128 bound,
                           float *t_entry) {
     const __m128 nx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.near[0]] + h), r.org[0]), r.inv[0]);
@@ -58,7 +59,7 @@ inline unsigned test_four(const Wide8Node &node, const NodeRay &r, int h, __m128
     __m128 b = _mm_min_ps(fx, bound);
     b = _mm_min_ps(fy, b);
     b = _mm_min_ps(fz, b);
-    if (!r.window_from_zero) {
+    if (!FromZero) {
         const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7FFFFFFF));
         b = _mm_add_ps(b, _mm_mul_ps(_mm_and_ps(b, abs_mask), _mm_set1_ps(kTwoGamma3)));
     }
@@ -66,9 +67,10 @@ inline unsigned test_four(const Wide8Node &node, const NodeRay &r, int h, __m128
     return unsigned(_mm_movemask_ps(_mm_cmple_ps(a, b)));
 }
 
+template <bool FromZero>
 inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float bound, float t_entry[8]) {
     const __m128 lo = _mm_set1_ps(tmin), hi = _mm_set1_ps(bound);
-    return test_four(node, r, 0, lo, hi, t_entry) | (test_four(node, r, 4, lo, hi, t_entry) << 4);
+    return test_four<FromZero>(node, r, 0, lo, hi, t_entry) | (test_four<FromZero>(node, r, 4, lo, hi, t_entry) << 4);
 }
 
 using PacketRay = PacketRaySse;
