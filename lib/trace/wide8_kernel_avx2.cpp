@@ -154,7 +154,9 @@ inline unsigned filter_packets(const TrianglePacket *p, uint32_t available, cons
     return filter_packet_sse(*p, r, edges);
 }
 
-int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);
+/// Always inlined: a call in the inner-node loop cost about 36 instructions
+/// a sorted node (callgrind, docs/PERFORMANCE.md row 105).
+[[gnu::always_inline]] inline int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);
 
 #include "trace/wide8_kernel.inl"
 
@@ -168,7 +170,7 @@ inline __m256i sort_layer(__m256i x, __m256i partner) {
 
 /// The hit lanes' keys sorted by a bitonic network on one register (six
 /// layers, no branch); lanes not hit get all-ones keys and sort last.
-int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]) {
+[[gnu::always_inline]] inline int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]) {
     const int n = __builtin_popcount(mask);
     if (n < 5) return sort_hits_insertion(mask, t_entry, key);
     const __m256i lane = _mm256_setr_epi32(7, 6, 5, 4, 3, 2, 1, 0); // 7 - k: see order_key8()
