@@ -1,0 +1,64 @@
+#!/bin/sh
+# Counts the instructions the default traversal runs per ray, the repeatable
+# measure behind docs/PERFORMANCE.md rows 99-106 (wall time on a shared VM
+# moves by more than most single changes). For each scene it runs
+#
+#   valgrind --tool=callgrind aacbvh-batch-threads --scenes SCENE --threads 1 --runs 1 --rays N
+#
+# and prints the instructions of the 8-wide kernel's entry points (the one the
+# CPU picked: wide8_avx2 on an AVX2 machine; valgrind has no AVX-512),
+# inclusive of everything they call, for closest-hit rays (primary and
+# diffuse together) and any-hit rays (shadow), and the same per ray (the
+# entry points' calls, one a ray, counted by callgrind: the program's
+# untimed passes included, so per ray is what compares). The
+# counts depend on the compiler, the kernel and the tree, not on the machine's
+# load: compare two builds on the same machine.
+#
+# Usage: scripts/ray_instructions.sh [BUILD_DIR] [SCENE ...]
+#   BUILD_DIR  a Release build (default build-bench; configured and built
+#              when needed)
+#   SCENE      OBJ names in ../shared/scenes or paths (default: bunny.obj)
+#   RAYS       environment: primary rays per side (default 192)
+# Needs valgrind (apt-get install valgrind).
+set -eu
+root=$(cd "$(dirname "$0")/.." && pwd)
+build=${1:-"$root/build-bench"}
+[ $# -gt 0 ] && shift
+case $build in /*) ;; *) build="$PWD/$build" ;; esac
+rays=${RAYS:-192}
+command -v valgrind > /dev/null || { echo "needs valgrind: apt-get install -y valgrind" >&2; exit 1; }
+
+if [ ! -f "$build/CMakeCache.txt" ]; then
+  cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release
+fi
+cmake --build "$build" --target aacbvh-batch-threads -j2 > /dev/null
+
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+[ $# -gt 0 ] || set -- bunny.obj
+printf '%-22s %14s %14s %10s %10s\n' scene "closest" "any hit" "per ray" "per ray"
+for scene in "$@"; do
+  valgrind --tool=callgrind --callgrind-out-file="$out/cg" "$build/examples/aacbvh-batch-threads" \
+    --scenes "$scene" --threads 1 --runs 1 --rays "$rays" > "$out/log" 2>&1
+  # Each entry point's inclusive instructions and its calls (one a ray),
+  # summed over its callers in the caller tree.
+  callgrind_annotate --tree=caller --inclusive=yes "$out/cg" 2> /dev/null |
+    awk -v scene="$scene" '
+      function ncalls(s,   k, parts, i, f) {
+        k = split(s, parts, "(")
+        for (i = k; i >= 1; i--)
+          if (parts[i] ~ /^[0-9,]+x\)/) { f = parts[i]; sub(/x\).*/, "", f); gsub(",", "", f); return f + 0 }
+        return 0
+      }
+      /^ *$/ { n = 0; next }
+      / < / { calls[n++] = ncalls($0); next }
+      /\* .*wide8_[a-z0-9]+::.*(intersect|occluded)_entry\(/ {
+        s = 0; for (i = 0; i < n; i++) s += calls[i]
+        x = $1; gsub(",", "", x)
+        if ($0 ~ /intersect_entry/) { c = x; cr = s } else { a = x; ar = s }
+      }
+      END {
+        if (!c || !cr) { printf "%-22s no 8-wide entry points counted (symbols stripped?)\n", scene; exit 1 }
+        printf "%-22s %14d %14d %10.0f %10.0f\n", scene, c, a, c / cr, (ar ? a / ar : 0)
+      }'
+done
