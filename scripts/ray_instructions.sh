@@ -55,6 +55,9 @@ for scene in "$@"; do
       /\* .*wide8_[a-z0-9]+::.*(intersect|occluded)_entry\(/ {
         s = 0; for (i = 0; i < n; i++) s += calls[i]
         x = $1; gsub(",", "", x)
+        # With debug info a function is listed once per source file its
+        # lines come from; the block with callers is the whole function.
+        if (s == 0) next
         if ($0 ~ /intersect_entry/) { c = x; cr = s } else { a = x; ar = s }
       }
       END {
