@@ -18,7 +18,7 @@ namespace aacbvh {
 /// Per-ray constants of the watertight test (section 3 of the paper).
 struct TriangleRay {
     float org[3];
-    double org_d[3], dir_d[3]; ///< org and dir in double, for the hit distance (triangle_distance())
+    double org_d[3], dir_d[3]; ///< org and dir in double, for the hit distance (triangle_distance_of())
     int kx, ky, kz;   ///< kz: dominant axis of dir; kx, ky the other two, swapped to keep winding
     float sx, sy;     ///< shear: dir[kx] / dir[kz], dir[ky] / dir[kz] (at most 1 in magnitude)
 };
@@ -59,6 +59,46 @@ inline bool has_area(const float *p0, const float *p1, const float *p2) {
     return e1[1] * e2[2] != e1[2] * e2[1] || e1[2] * e2[0] != e1[0] * e2[2] || e1[0] * e2[1] != e1[1] * e2[0];
 }
 
+/// Where a triangle's vertices are read from: at(i, a) is coordinate a of
+/// vertex i. The distance and the edge finish below are written once over
+/// it, so a caller can read the vertices where they lie (three pointers
+/// here; a packet lane in bvh/wide8_bvh.h) without copying them into arrays
+/// whose addresses would keep them in memory.
+struct VertexPointers {
+    const float *p[3];
+    float at(int i, int a) const { return p[i][a]; }
+};
+
+/// The vertices of `tri` copied into p[3][3], for the rare paths that take
+/// pointers.
+template <class Vertices> inline void copy_vertices(const Vertices &tri, float p[3][3]) {
+    for (int i = 0; i < 3; ++i)
+        for (int a = 0; a < 3; ++a) p[i][a] = tri.at(i, a);
+}
+
+/// The rare tail of triangle_distance_of(): the plane point lies outside the
+/// triangle's box (or there is no plane point), so t becomes the nearest
+/// distance at which the ray is inside the box. Out of line, so the hot path
+/// never needs the vertices in memory.
+template <class Vertices>
+[[gnu::noinline, gnu::cold]] bool clamp_to_triangle_box(const TriangleRay &r, const Vertices &tri, double plane,
+                                                         double &t) {
+    double enter = -INFINITY, leave = INFINITY;
+    for (int k = 0; k < 3; ++k) {
+        if (r.dir_d[k] == 0.0) continue;
+        const float c0 = tri.at(0, k), c1 = tri.at(1, k), c2 = tri.at(2, k);
+        const double lo = double(std::min(std::min(c0, c1), c2)) - r.org_d[k];
+        const double hi = double(std::max(std::max(c0, c1), c2)) - r.org_d[k];
+        const double a = lo / r.dir_d[k], b = hi / r.dir_d[k];
+        enter = std::max(enter, std::min(a, b));
+        leave = std::min(leave, std::max(a, b));
+    }
+    // A plane the ray runs along in double (a nearly collinear triangle the
+    // edge functions still found): where the ray enters the box.
+    t = std::isfinite(plane) ? std::max(std::min(plane, leave), enter) : enter;
+    return std::isfinite(t);
+}
+
 /// The distance along the ray to the triangle, for a ray the edge functions
 /// have found inside it: the plane distance (p0 - org) . n / (dir . n), n =
 /// (p1 - p0) x (p2 - p0), in double, kept within the stretch of the ray that
@@ -80,53 +120,6 @@ inline bool has_area(const float *p0, const float *p1, const float *p2) {
 /// visits. Clamped to the box, t is where the node tests expect it. For every
 /// other hit the plane point lies in the box and nothing changes.
 /// Returns false when no finite distance comes out.
-/// The rare tail of triangle_distance(): the plane point lies outside the
-/// triangle's box (or there is no plane point), so t becomes the nearest
-/// distance at which the ray is inside the box.
-[[gnu::noinline, gnu::cold]] inline bool clamp_to_triangle_box(const TriangleRay &r, const float *p0,
-                                                                const float *p1, const float *p2, double plane,
-                                                                double &t) {
-    double enter = -INFINITY, leave = INFINITY;
-    for (int k = 0; k < 3; ++k) {
-        if (r.dir_d[k] == 0.0) continue;
-        const double lo = double(std::min(std::min(p0[k], p1[k]), p2[k])) - r.org_d[k];
-        const double hi = double(std::max(std::max(p0[k], p1[k]), p2[k])) - r.org_d[k];
-        const double a = lo / r.dir_d[k], b = hi / r.dir_d[k];
-        enter = std::max(enter, std::min(a, b));
-        leave = std::min(leave, std::max(a, b));
-    }
-    // A plane the ray runs along in double (a nearly collinear triangle the
-    // edge functions still found): where the ray enters the box.
-    t = std::isfinite(plane) ? std::max(std::min(plane, leave), enter) : enter;
-    return std::isfinite(t);
-}
-
-/// Where a triangle's vertices are read from: at(i, a) is coordinate a of
-/// vertex i. The distance and the edge finish below are written once over
-/// it, so a caller can read the vertices where they lie (three pointers
-/// here; a packet lane in trace/wide8_kernel.inl) without copying them into
-/// arrays whose addresses would keep them in memory.
-struct VertexPointers {
-    const float *p[3];
-    float at(int i, int a) const { return p[i][a]; }
-};
-
-/// The vertices of `tri` copied into p[3][3], for the rare paths that take
-/// pointers.
-template <class Vertices> inline void copy_vertices(const Vertices &tri, float p[3][3]) {
-    for (int i = 0; i < 3; ++i)
-        for (int a = 0; a < 3; ++a) p[i][a] = tri.at(i, a);
-}
-
-/// clamp_to_triangle_box() for any vertex source: out of line, so the hot
-/// path never needs the vertices in memory.
-template <class Vertices>
-[[gnu::noinline, gnu::cold]] bool clamp_to_box_of(const TriangleRay &r, const Vertices &tri, double plane, double &t) {
-    float p[3][3];
-    copy_vertices(tri, p);
-    return clamp_to_triangle_box(r, p[0], p[1], p[2], plane, t);
-}
-
 template <class Vertices> inline bool triangle_distance_of(const TriangleRay &r, const Vertices &tri, double &t) {
     double e1[3], e2[3], w[3];
     for (int k = 0; k < 3; ++k) {
@@ -149,14 +142,10 @@ template <class Vertices> inline bool triangle_distance_of(const TriangleRay &r,
         inside = inside && x >= lo && x <= hi;
     }
     if (inside) return true;
-    return clamp_to_box_of(r, tri, t, t);
+    return clamp_to_triangle_box(r, tri, t, t);
 }
 
-inline bool triangle_distance(const TriangleRay &r, const float *p0, const float *p1, const float *p2, double &t) {
-    return triangle_distance_of(r, VertexPointers{{p0, p1, p2}}, t);
-}
-
-/// triangle_distance() rounded to the float that is reported, and whether
+/// triangle_distance_of() rounded to the float that is reported, and whether
 /// that float lies in [tmin, tmax]. The window is applied to the reported t,
 /// not to the double before rounding: a traversal's window ends at the best t
 /// reported so far, and a second triangle at exactly that t (a tie, decided
@@ -294,12 +283,6 @@ inline bool intersect_triangle_edges_of(const TriangleRay &r, const Vertices &tr
     u = ev * inv_det;
     v = ew * inv_det;
     return true;
-}
-
-inline bool intersect_triangle_edges(const TriangleRay &r, const float *p0, const float *p1, const float *p2,
-                                     float eu, float ev, float ew, float mag, float tmin, float tmax, float &t,
-                                     float &u, float &v) {
-    return intersect_triangle_edges_of(r, VertexPointers{{p0, p1, p2}}, eu, ev, ew, mag, tmin, tmax, t, u, v);
 }
 
 } // namespace aacbvh
