@@ -55,6 +55,13 @@ target_compile_options(aacbvh-batch-threads PRIVATE -Wall -Wextra)
 target_link_libraries(aacbvh-batch-threads PRIVATE aacbvh_bench_core aacbvh_scene)
 target_compile_definitions(aacbvh-batch-threads PRIVATE AACBVH_SCENES_DIR="${AACBVH_SCENES_DIR}")
 
+# aacbvh-build-phases: a build's time per phase (input, sort, clustering,
+# layouts) at each context thread count, stamped by a progress callback.
+add_executable(aacbvh-build-phases ${_bench_dir}/build_phases.cpp)
+target_compile_options(aacbvh-build-phases PRIVATE -Wall -Wextra)
+target_link_libraries(aacbvh-build-phases PRIVATE aacbvh_bench_core aacbvh_scene)
+target_compile_definitions(aacbvh-build-phases PRIVATE AACBVH_SCENES_DIR="${AACBVH_SCENES_DIR}")
+
 if(AACBVH_BUILD_TESTS)
   # A test that runs TARGET with ARGS (one string, split as a shell would)
   # and passes when it exits 0 and its standard output matches the regular
@@ -126,6 +133,17 @@ if(AACBVH_BUILD_TESTS)
   bench_expect_test(bench_batch_threads_smoke aacbvh-batch-threads
     "--scenes procedural-small --rays 48 --threads 1,2,3 --runs 1"
     "procedural-small +diffuse +[0-9]+ +[0-9.]+ +[0-9.]+ \\([0-9.]+x\\) +[0-9.]+ \\([0-9.]+x\\)\n")
+
+  # Smoke tests of aacbvh-build-phases: a small generated scene at one, two
+  # and three threads, fresh handles and one kept-memory handle; it exits 1
+  # when a thread count's tree differs from the first count's, and must print
+  # the phase columns with their speedups.
+  bench_expect_test(bench_build_phases_smoke aacbvh-build-phases
+    "--scenes procedural-small --threads 1,2,3 --runs 2"
+    "procedural-small +aac-fast +3( +[0-9.]+ +[0-9.]+x| +[0-9.]+ +)( +[0-9.]+ +[0-9.]+x| +[0-9.]+ +)( +[0-9.]+ +[0-9.]+x| +[0-9.]+ +)( +[0-9.]+ +[0-9.]+x| +[0-9.]+ +) +[0-9.]+ +[0-9.]+x +[0-9.]+-[0-9.]+ *\n")
+  bench_expect_test(bench_build_phases_kept_smoke aacbvh-build-phases
+    "--scenes procedural-small --builders aac-hq,ploc --threads 1,2 --runs 2 --keep-build-memory"
+    "one handle rebuilt with kept build memory.*procedural-small +ploc +2 ")
 
   # Smoke test of aacbvh-hit-accuracy: a small generated scene; it must exit 0
   # and print the accuracy table's header.
