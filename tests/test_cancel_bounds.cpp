@@ -6,12 +6,13 @@
 //
 // Work is counted, not timed: the library counts the distances its
 // clustering builders evaluate (aacbvh::testing::distance_evaluations, added
-// up where the rows and windows are computed), and with the poll interval set
-// to 0 every poll calls the callback. The callback records the count at each
-// call; the most distances evaluated between two calls must stay under a
-// fixed bound, and the build must return AACBVH_ERROR_CANCELLED soon after
-// the callback asks for it. Linked statically with the library (aacbvh_core
-// and capi.cpp) to reach the testing counters.
+// up where the rows and windows are computed, once the test turns counting
+// on), and with the poll interval set to 0 every poll calls the callback. The
+// callback records the count at each call; the most distances evaluated
+// between two calls must stay under a fixed bound, and the build must return
+// AACBVH_ERROR_CANCELLED soon after the callback asks for it. Linked
+// statically with the library (aacbvh_core and capi.cpp) to reach the testing
+// counters.
 #include <aacbvh/aacbvh.h>
 
 #include <cmath>
@@ -108,6 +109,7 @@ template <class Setup> void check_cancel(const char *what, size_t n, Setup &&set
 
 int set_up(void **) {
     aacbvh::testing::poll_interval_ms.store(0);
+    aacbvh::testing::counting_distances.store(true);
     return 0;
 }
 
