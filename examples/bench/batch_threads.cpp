@@ -68,12 +68,7 @@ bool parse(int argc, char **argv, Options &o) {
             o.width = uint32_t(w);
             o.height = uint32_t(h);
         } else if (!std::strcmp(argv[i], "--threads") && has_value) {
-            o.threads.clear();
-            for (const std::string &t : split(argv[++i], ',')) {
-                if (!parse_uint(t.c_str(), v) || v == 0 || v > 1024) return false;
-                o.threads.push_back(uint32_t(v));
-            }
-            if (o.threads.empty()) return false;
+            if (!parse_thread_list(argv[++i], o.threads)) return false;
         } else if (!std::strcmp(argv[i], "--runs") && has_value) {
             if (!parse_uint(argv[++i], v) || v == 0 || v > 1000) return false;
             o.runs = int(v);
@@ -81,11 +76,7 @@ bool parse(int argc, char **argv, Options &o) {
             return false;
         }
     }
-    if (o.threads.empty()) {
-        o.threads.push_back(1);
-        const unsigned hw = std::thread::hardware_concurrency();
-        if (hw > 1) o.threads.push_back(hw);
-    }
+    if (o.threads.empty()) o.threads = default_thread_counts();
     return true;
 }
 
@@ -205,7 +196,6 @@ int main(int argc, char **argv) {
         usage(argv[0]);
         return 2;
     }
-    const std::vector<std::string> specs = expand_scene_specs(opt.scenes, AACBVH_SCENES_DIR);
 
     std::printf("aacbvh-batch-threads: %s, %u hardware threads; libaacbvh %s\n", cpu_name().c_str(),
                 std::thread::hardware_concurrency(), aacbvh_version_string());
@@ -215,18 +205,7 @@ int main(int argc, char **argv) {
     std::printf("%-18s %-8s %8s", "scene", "rays", "count");
     for (uint32_t t : opt.threads) std::printf("  %5u thr", t);
     std::printf("\n");
-    bool ok = true;
-    int scenes = 0;
-    for (const std::string &spec : specs) {
-        Scene scene;
-        std::string err;
-        if (!load_scene_spec(spec, AACBVH_SCENES_DIR, scene, err)) {
-            std::fprintf(stderr, "aacbvh-batch-threads: %s: %s\n", spec.c_str(), err.c_str());
-            ok = false;
-            continue;
-        }
-        ok = run_scene(scene, opt) && ok;
-        ++scenes;
-    }
-    return ok && scenes > 0 ? 0 : 1;
+    const bool ok = for_each_scene(opt.scenes, AACBVH_SCENES_DIR, "aacbvh-batch-threads",
+                                   [&](const Scene &scene) { return run_scene(scene, opt); });
+    return ok ? 0 : 1;
 }

@@ -82,12 +82,7 @@ bool parse(int argc, char **argv, Options &o) {
             }
             if (o.builders.empty()) return false;
         } else if (!std::strcmp(argv[i], "--threads") && has_value) {
-            o.threads.clear();
-            for (const std::string &t : split(argv[++i], ',')) {
-                if (!parse_uint(t.c_str(), v) || v == 0 || v > 1024) return false;
-                o.threads.push_back(uint32_t(v));
-            }
-            if (o.threads.empty()) return false;
+            if (!parse_thread_list(argv[++i], o.threads)) return false;
         } else if (!std::strcmp(argv[i], "--keep-build-memory")) {
             o.keep_build_memory = true;
         } else if (!std::strcmp(argv[i], "--runs") && has_value) {
@@ -97,11 +92,7 @@ bool parse(int argc, char **argv, Options &o) {
             return false;
         }
     }
-    if (o.threads.empty()) {
-        o.threads.push_back(1);
-        const unsigned hw = std::thread::hardware_concurrency();
-        if (hw > 1) o.threads.push_back(hw);
-    }
+    if (o.threads.empty()) o.threads = default_thread_counts();
     return true;
 }
 
@@ -199,11 +190,15 @@ bool run_scene(const Scene &scene, const Options &opt) {
             std::vector<double> phase_runs[kPhaseCount], totals;
             double sah = 0.0;
             // Kept memory: one handle, rebuilt, its first build untimed.
-            Handle kept = opt.keep_build_memory ? make_handle(raw, scene, builder, true) : Handle(nullptr, nullptr);
-            if (opt.keep_build_memory && (!kept || aacbvh_bvh_build(kept.get()) != AACBVH_OK)) return false;
+            Handle kept(nullptr, aacbvh_bvh_destroy);
+            if (opt.keep_build_memory) {
+                kept = make_handle(raw, scene, builder, true);
+                if (!kept || aacbvh_bvh_build(kept.get()) != AACBVH_OK) return false;
+            }
             for (int r = 0; r < opt.runs; ++r) {
                 double phases[kPhaseCount], total = 0.0;
-                Handle fresh = opt.keep_build_memory ? Handle(nullptr, nullptr) : make_handle(raw, scene, builder, false);
+                Handle fresh(nullptr, aacbvh_bvh_destroy);
+                if (!opt.keep_build_memory) fresh = make_handle(raw, scene, builder, false);
                 aacbvh_bvh *bvh = opt.keep_build_memory ? kept.get() : fresh.get();
                 if (!bvh || !timed_build(bvh, scene, phases, total, sah)) return false;
                 for (int i = 0; i < kPhaseCount; ++i) phase_runs[i].push_back(phases[i]);
@@ -242,26 +237,15 @@ int main(int argc, char **argv) {
         usage(argv[0]);
         return 2;
     }
-    const std::vector<std::string> specs = expand_scene_specs(opt.scenes, AACBVH_SCENES_DIR);
     std::printf("aacbvh-build-phases: %s, %u hardware threads; libaacbvh %s\n", cpu_name().c_str(),
                 std::thread::hardware_concurrency(), aacbvh_version_string());
     std::printf("%s, default parameters, median of %d builds in ms (speedup over %u thread%s)\n",
-                opt.keep_build_memory ? "one handle rebuilt with kept build memory" : "fresh handle per build", opt.runs, opt.threads[0], opt.threads[0] == 1 ? "" : "s");
+                opt.keep_build_memory ? "one handle rebuilt with kept build memory" : "fresh handle per build",
+                opt.runs, opt.threads[0], opt.threads[0] == 1 ? "" : "s");
     std::printf("%-18s %-10s %4s", "scene", "builder", "thr");
     for (const char *name : kPhaseNames) std::printf("  %-15s", name);
     std::printf("  %-15s  %s\n", "total", "total min-max");
-    bool ok = true;
-    int scenes = 0;
-    for (const std::string &spec : specs) {
-        Scene scene;
-        std::string err;
-        if (!load_scene_spec(spec, AACBVH_SCENES_DIR, scene, err)) {
-            std::fprintf(stderr, "aacbvh-build-phases: %s: %s\n", spec.c_str(), err.c_str());
-            ok = false;
-            continue;
-        }
-        ok = run_scene(scene, opt) && ok;
-        ++scenes;
-    }
-    return ok && scenes > 0 ? 0 : 1;
+    const bool ok = for_each_scene(opt.scenes, AACBVH_SCENES_DIR, "aacbvh-build-phases",
+                                   [&](const Scene &scene) { return run_scene(scene, opt); });
+    return ok ? 0 : 1;
 }

@@ -4,9 +4,11 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "scene.h"
@@ -34,6 +36,26 @@ inline bool parse_uint(const char *s, uint64_t &out) {
     if (!s[0] || *end || s[0] == '-') return false;
     out = v;
     return true;
+}
+
+/// A --threads list ("1,2,4"): counts from 1 to 1024; false for anything else.
+inline bool parse_thread_list(const char *s, std::vector<uint32_t> &out) {
+    out.clear();
+    for (const std::string &t : split(s, ',')) {
+        uint64_t v = 0;
+        if (!parse_uint(t.c_str(), v) || v == 0 || v > 1024) return false;
+        out.push_back(uint32_t(v));
+    }
+    return !out.empty();
+}
+
+/// The thread counts a benchmark uses when none are asked for: 1 and this
+/// machine's hardware threads.
+inline std::vector<uint32_t> default_thread_counts() {
+    std::vector<uint32_t> counts{1};
+    const unsigned hw = std::thread::hardware_concurrency();
+    if (hw > 1) counts.push_back(hw);
+    return counts;
 }
 
 /// The CPU's model name from /proc/cpuinfo, or "unknown CPU".
@@ -93,6 +115,28 @@ inline bool load_scene_spec(const std::string &spec, const char *scenes_dir, Sce
         if (path.size() < 4 || path.compare(path.size() - 4, 4, ".obj") != 0) path += ".obj";
     }
     return load_obj(path, scene, err);
+}
+
+/// Loads each scene that a --scenes list names, in order, and calls
+/// run(scene), which returns false on a failure. A scene that does not load
+/// is reported on stderr as "program: spec: error". True when every scene
+/// loaded and ran, and there was at least one.
+template <class Run>
+bool for_each_scene(const std::vector<std::string> &listed, const char *scenes_dir, const char *program, Run &&run) {
+    bool ok = true;
+    int scenes = 0;
+    for (const std::string &spec : expand_scene_specs(listed, scenes_dir)) {
+        Scene scene;
+        std::string err;
+        if (!load_scene_spec(spec, scenes_dir, scene, err)) {
+            std::fprintf(stderr, "%s: %s: %s\n", program, spec.c_str(), err.c_str());
+            ok = false;
+            continue;
+        }
+        ok = run(scene) && ok;
+        ++scenes;
+    }
+    return ok && scenes > 0;
 }
 
 } // namespace bench
