@@ -45,16 +45,36 @@ template <int kVectors> struct SmallCombine {
         }
     }
 
+    /// Registers that hold slots [0, live): the loops below cover only those
+    /// (lanes past live are +inf or dead), so a combine's rows shrink with its
+    /// live count instead of spanning all kVectors registers (docs/PERFORMANCE.md, change 110).
+    static int registers(uint32_t live) { return live <= 8 ? 1 : int((live + 7) / 8); }
+    static constexpr int cap(int n) { return n < kVectors ? n : kVectors; }
+
     /// d(i, j) for every lane j into `row`: +inf where j == i or j >= live.
     /// Returns the smallest entry's slot (the lowest on ties) and its value.
     uint32_t nearest(uint32_t i, uint32_t live, float &best) {
+        switch (registers(live)) {
+        case 1: return nearest_in<cap(1)>(i, live, best);
+        case 2: return nearest_in<cap(2)>(i, live, best);
+        case 3: return nearest_in<cap(3)>(i, live, best);
+        case 4: return nearest_in<cap(4)>(i, live, best);
+        case 5: return nearest_in<cap(5)>(i, live, best);
+        case 6: return nearest_in<cap(6)>(i, live, best);
+        case 7: return nearest_in<cap(7)>(i, live, best);
+        default: return nearest_in<kVectors>(i, live, best);
+        }
+    }
+
+    /// nearest() over the first kUsed registers (slots [0, 8 kUsed) hold every live one).
+    template <int kUsed> uint32_t nearest_in(uint32_t i, uint32_t live, float &best) {
         __m256 q[6];
         for (int k = 0; k < 6; ++k) q[k] = _mm256_broadcast_ss(&col[k][i]);
         const __m256 inf = _mm256_set1_ps(INFINITY), fmax = _mm256_set1_ps(FLT_MAX);
         const __m256i self = _mm256_set1_epi32(int(i)), end = _mm256_set1_epi32(int(live));
         __m256 m = inf;
-        __m256 r[kVectors];
-        for (int v = 0; v < kVectors; ++v) {
+        __m256 r[kUsed];
+        for (int v = 0; v < kUsed; ++v) {
             __m256 d[3];
             for (int k = 0; k < 3; ++k)
                 d[k] = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_load_ps(col[k + 3] + 8 * v), q[k + 3]),
@@ -69,31 +89,44 @@ template <int kVectors> struct SmallCombine {
             _mm256_store_ps(row + 8 * v, r[v]);
             m = _mm256_min_ps(m, r[v]);
         }
-        return first_equal(r, m, best);
+        return first_equal<kUsed>(r, m, best);
     }
 
     /// The lowest lane of r holding the minimum of the lane-wise minima m.
-    static uint32_t first_equal(const __m256 *r, __m256 m, float &best) {
+    template <int kUsed> static uint32_t first_equal(const __m256 *r, __m256 m, float &best) {
         m = _mm256_min_ps(m, _mm256_permute2f128_ps(m, m, 1));
         m = _mm256_min_ps(m, _mm256_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
         m = _mm256_min_ps(m, _mm256_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
         uint64_t mask = 0;
-        for (int v = 0; v < kVectors; ++v)
+        for (int v = 0; v < kUsed; ++v)
             mask |= uint64_t(unsigned(_mm256_movemask_ps(_mm256_cmp_ps(r[v], m, _CMP_EQ_OQ)))) << (8 * v);
         best = _mm256_cvtss_f32(m);
         return uint32_t(__builtin_ctzll(mask)); // a row always has a finite entry (live >= 2)
     }
 
-    /// The smallest nd among the live slots (lanes past live hold +inf).
-    uint32_t closest_pair() const {
-        __m256 r[kVectors];
+    /// The smallest nd among the live slots (the lowest on ties; lanes past live hold +inf).
+    uint32_t closest_pair(uint32_t live) const {
+        switch (registers(live)) {
+        case 1: return closest_pair_in<cap(1)>();
+        case 2: return closest_pair_in<cap(2)>();
+        case 3: return closest_pair_in<cap(3)>();
+        case 4: return closest_pair_in<cap(4)>();
+        case 5: return closest_pair_in<cap(5)>();
+        case 6: return closest_pair_in<cap(6)>();
+        case 7: return closest_pair_in<cap(7)>();
+        default: return closest_pair_in<kVectors>();
+        }
+    }
+
+    template <int kUsed> uint32_t closest_pair_in() const {
+        __m256 r[kUsed];
         __m256 m = _mm256_set1_ps(INFINITY);
-        for (int v = 0; v < kVectors; ++v) {
+        for (int v = 0; v < kUsed; ++v) {
             r[v] = _mm256_load_ps(nd + 8 * v);
             m = _mm256_min_ps(m, r[v]);
         }
         float ignored;
-        return first_equal(r, m, ignored);
+        return first_equal<kUsed>(r, m, ignored);
     }
 
     /// After merging a and b (a < b) into slot a and moving slot `last` to b,
@@ -101,10 +134,23 @@ template <int kVectors> struct SmallCombine {
     /// again; the others follow a partner moved from last to b and take a when
     /// it is closer (or as close with a lower slot). The scalar loop's rules.
     void update(uint32_t a, uint32_t b, uint32_t last, uint32_t live) {
+        switch (registers(live)) {
+        case 1: return update_in<cap(1)>(a, b, last, live);
+        case 2: return update_in<cap(2)>(a, b, last, live);
+        case 3: return update_in<cap(3)>(a, b, last, live);
+        case 4: return update_in<cap(4)>(a, b, last, live);
+        case 5: return update_in<cap(5)>(a, b, last, live);
+        case 6: return update_in<cap(6)>(a, b, last, live);
+        case 7: return update_in<cap(7)>(a, b, last, live);
+        default: return update_in<kVectors>(a, b, last, live);
+        }
+    }
+
+    template <int kUsed> void update_in(uint32_t a, uint32_t b, uint32_t last, uint32_t live) {
         const __m256i va = _mm256_set1_epi32(int(a)), vb = _mm256_set1_epi32(int(b)),
                       vlast = _mm256_set1_epi32(int(last));
         uint64_t again_bits = 0;
-        for (int v = 0; v < kVectors; ++v) {
+        for (int v = 0; v < kUsed; ++v) {
             const __m256i lane = _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
             const __m256i live_lane =
                 _mm256_andnot_si256(_mm256_cmpeq_epi32(lane, va), _mm256_cmpgt_epi32(_mm256_set1_epi32(int(live)), lane));
@@ -124,7 +170,7 @@ template <int kVectors> struct SmallCombine {
         }
         for (; again_bits; again_bits &= again_bits - 1) {
             const uint32_t j = uint32_t(__builtin_ctzll(again_bits));
-            nn[j] = int32_t(nearest(j, live, nd[j]));
+            nn[j] = int32_t(nearest_in<kUsed>(j, live, nd[j]));
         }
     }
 };

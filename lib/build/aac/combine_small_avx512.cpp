@@ -92,7 +92,7 @@ template <int kVectors> struct SmallCombine512 {
     }
 
     /// The smallest nd among the live slots (lanes past live hold +inf).
-    uint32_t closest_pair() const {
+    uint32_t closest_pair(uint32_t /*live: lanes past it hold +inf*/) const {
         __m512 r[kVectors];
         __m512 m = _mm512_set1_ps(INFINITY);
         for (int v = 0; v < kVectors; ++v) {

@@ -6,7 +6,8 @@
 //   uint32_t nearest(uint32_t slot, uint32_t live, float &best);
 //     fills its row with d(slot, .) and returns the nearest other slot (the
 //     lowest on ties);
-//   uint32_t closest_pair() const;  the lowest slot whose nd is the smallest;
+//   uint32_t closest_pair(uint32_t live) const;  the lowest slot whose nd is
+//     the smallest (slots from live on hold +inf);
 //   void update(uint32_t a, uint32_t b, uint32_t last, uint32_t live);
 //     the nearest-neighbour bookkeeping after a merge, with the row = d(a, .).
 // The merges are those of the scalar loop (build/aac/cluster_combine.cpp).
@@ -33,7 +34,7 @@ uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, 
 
     uint32_t live = count, used = 0;
     while (live > target) {
-        uint32_t a = s.closest_pair();
+        uint32_t a = s.closest_pair(live);
         uint32_t b = uint32_t(s.nn[a]);
         if (a > b) std::swap(a, b);
 
