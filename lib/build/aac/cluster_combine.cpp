@@ -210,9 +210,10 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
     return live;
 }
 
-/// The same greedy loop for a handful of clusters (AAC-Fast's nodes hold 2 to
-/// 8): everything in registers and stack arrays, scalar distances, no
-/// padding. Same tie rules as combine(), so results are identical.
+/// The same greedy loop for a handful of clusters (9 to kSmallCombine where
+/// the AVX2 loop is not available; below that the pair scan, combine_few):
+/// everything in registers and stack arrays, scalar distances, no padding.
+/// Same tie rules as combine(), so results are identical.
 
 /// argmin_row() for rows of a few entries, inlined.
 /// Branch-free: which entry is smallest is data, not a pattern to predict.
@@ -262,6 +263,69 @@ uint32_t combine_once(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint3
     ids[a] = node;
     for (uint32_t i = 0; i < last; ++i) free_ids[i] = free_ids[i + 1];
     return last;
+}
+
+/// Combines of at most kFewCombine clusters (most of AAC-Fast's, 4 to 8 down
+/// to 3 or 4): each pair's distance once, then every merge joins the first
+/// pair in (a, b) slot order at the smallest distance, found by scanning the
+/// live pairs, with no nearest-neighbour bookkeeping; slots move as in the
+/// other loops (the merged cluster in slot a, the last live one into slot b).
+/// Without ties this is the pair every loop picks. With ties it can differ
+/// from the greedy loops, which keep a recorded nearest neighbour that a
+/// moved slot ties with (docs/PERFORMANCE.md, rows 78 and 112); every kernel
+/// runs this same loop for these counts, so builds stay identical across
+/// kernels and thread counts.
+uint32_t combine_few(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
+                     float scale, const FlattenRule &rule, SubtreeChoice *choices) {
+    const uint32_t n = tree.leaf_count();
+    Box box[kFewCombine];
+    float d[kFewCombine][kFewCombine]; // d[i][j] for i < j
+    // A leaf's choice from the box held here (the same values as the tree's).
+    auto choice = [&](uint32_t slot) { return ids[slot] < n ? rule.leaf(box[slot]) : choices[ids[slot] - n]; };
+    for (uint32_t i = 0; i < count; ++i) box[i] = tree.boxes[ids[i]];
+    for (uint32_t i = 0; i + 1 < count; ++i)
+        for (uint32_t j = i + 1; j < count; ++j) d[i][j] = scaled_union_half_area(box[i], box[j], scale);
+
+    uint32_t live = count, used = 0;
+    while (live > target) {
+        float best = INFINITY;
+        uint32_t a = 0, b = 1;
+        for (uint32_t i = 0; i + 1 < live; ++i)
+            for (uint32_t j = i + 1; j < live; ++j) {
+                const bool less = d[i][j] < best; // strict: the first pair in slot order wins ties
+                best = less ? d[i][j] : best;
+                a = less ? i : a;
+                b = less ? j : b;
+            }
+        const uint32_t node = free_ids[used++];
+        const Box merged = unite(box[a], box[b]);
+        tree.boxes[node] = merged;
+        tree.set_children(node, ids[a], ids[b]);
+        choices[node - n] = rule.inner(merged, choice(a), choice(b));
+
+        const uint32_t last = live - 1;
+        if (b != last) { // the last live cluster moves into slot b, its distances with it
+            box[b] = box[last];
+            ids[b] = ids[last];
+            for (uint32_t j = 0; j < last; ++j) {
+                if (j == b) continue;
+                const float v = j < last ? d[j][last] : d[last][j];
+                if (j < b) d[j][b] = v;
+                else d[b][j] = v;
+            }
+        }
+        live = last;
+        box[a] = merged;
+        ids[a] = node;
+        for (uint32_t j = 0; j < live; ++j) {
+            if (j == a) continue;
+            const float v = scaled_union_half_area(merged, box[j], scale);
+            if (j < a) d[j][a] = v;
+            else d[a][j] = v;
+        }
+    }
+    for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
+    return live;
 }
 
 uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
@@ -387,6 +451,7 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
     if (variant == CombineVariant::Small && count <= small_limit) {
         if (count == target + 1 && count <= kSmallCombine)
             return combine_once(tree, ids, free_ids, count, scale, rule, choices);
+        if (count <= kFewCombine) return combine_few(tree, ids, free_ids, count, target, scale, rule, choices);
         if (kernel == DistanceKernel::Avx512 && count > 8)
             return combine_small_avx512(tree, ids, free_ids, count, target, scale, rule, choices);
         if (avx2 && count > 8) return combine_small_avx2(tree, ids, free_ids, count, target, scale, rule, choices);

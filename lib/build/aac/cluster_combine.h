@@ -64,14 +64,21 @@ private:
 /// are indexed by id - leaf count. Combines of more than a handful of
 /// clusters use the calling thread's scratch from the build's `scratch_pool`.
 ///
-/// Three loops give the same merges: a register-sized one for at most
+/// Three greedy loops give the same merges: a register-sized one for at most
 /// kSmallCombine clusters (kWideSmallCombine with the AVX2 and AVX-512
 /// kernels, build/aac/combine_small.h), one over a cached distance matrix up
 /// to kMatrixCombine (never with those kernels), and one that recomputes rows
-/// beyond. `variant` picks one for tests (Small beyond its limit runs the
-/// matrix); builds pass Automatic.
+/// beyond. Each merges slot a, the lowest slot at the smallest nearest
+/// distance, with its recorded nearest neighbour. Combines of at most
+/// kFewCombine clusters (with every kernel) and those that make one merge
+/// take instead the first pair (a, b) in slot order at the smallest distance,
+/// by scanning all live pairs: the same pair unless distances tie, where the
+/// recorded neighbour can be another (docs/PERFORMANCE.md, row 112). `variant`
+/// picks a loop for tests (Small beyond its limit runs the matrix; Small at
+/// most kFewCombine the pair scan); builds pass Automatic.
 enum class CombineVariant { Automatic, Small, Matrix, Rows };
 constexpr uint32_t kSmallCombine = 16;
+constexpr uint32_t kFewCombine = 8;
 constexpr uint32_t kMatrixCombine = 2048;
 
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
