@@ -30,6 +30,7 @@ public:
     BlockCache &operator=(const BlockCache &) = delete;
 
     /// A kept block of at least `bytes` (and at most 1/8 more), or nullptr.
+    /// The pages past `bytes` stay kept as a rest of their own.
     void *take(size_t bytes) noexcept;
     /// The first `bytes` (whole pages) of the smallest block freed since
     /// begin_build() that holds more; the rest stays kept as a block of its
@@ -45,7 +46,12 @@ public:
     size_t bytes() const noexcept;
 
     /// Marks the blocks kept so far as old: end_build() frees those that the
-    /// build did not take, so a cache holds at most what one build freed.
+    /// build did not take, so a cache holds at most what one build freed. It
+    /// first joins each rest to its front where that came back (the parts
+    /// take() and take_part() cut from one block, freed again; an old rest
+    /// joined to a front this build freed stays), so that a handle that
+    /// rebuilds with kept memory finds whole blocks again from its third
+    /// build on (docs/PERFORMANCE.md, row 113).
     void begin_build() noexcept;
     void end_build() noexcept;
 
@@ -63,10 +69,12 @@ public:
     };
 
 private:
+    void join_neighbours() noexcept;
     struct Block {
         void *pointer;
         size_t bytes;
         bool old;
+        bool rest; ///< the pages past a front that take() or take_part() gave out
     };
     static constexpr size_t kMaxBlocks = 64; ///< a build frees about 20
     Block blocks_[kMaxBlocks];
