@@ -142,12 +142,28 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
         work.add(uint64_t(rows) * length);
     };
 
-    // The diagonal is +inf so that nearest-neighbour scans need no self test.
-    for (uint32_t i = 0; i < count; ++i) {
-        boxes.query(i, q);
-        nn[i] = distance_row_argmin(boxes.columns(), count, q, scale, kMatrix ? matrix + size_t(i) * stride : matrix,
-                                    i, nd[i]);
-        rows_done(1, count);
+    if (kMatrix) {
+        // The diagonal is +inf so that nearest-neighbour scans need no self test.
+        for (uint32_t i = 0; i < count; ++i) {
+            boxes.query(i, q);
+            nn[i] = distance_row_argmin(boxes.columns(), count, q, scale, matrix + size_t(i) * stride, i, nd[i]);
+            rows_done(1, count);
+        }
+    } else {
+        // Each pair's distance once where the kernel can (nearest_rows()),
+        // in runs of rows of about 2^20 distances between polls.
+        for (uint32_t j = 0; j < stride; ++j) {
+            nd[j] = INFINITY;
+            nn[j] = 0;
+        }
+        for (uint32_t i = 0; i < count;) {
+            uint32_t e = i;
+            uint32_t pairs = 0;
+            while (e < count && pairs < (uint32_t(1) << 20)) pairs += count - e++;
+            nearest_rows(boxes.columns(), count, scale, i, e, nd, nn, matrix);
+            rows_done(1, pairs);
+            i = e;
+        }
     }
 
     uint32_t live = count;
@@ -461,10 +477,10 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
     const uint32_t stride = padded(count + 1);
     const MemoryMeter::Scope metered(scratch.meter); // growth counts in the build's peak
     if (scratch.columns.size() < 6 * size_t(stride)) scratch.columns.resize(6 * size_t(stride));
-    if (scratch.nearest.size() < count) {
-        scratch.nearest_distance.resize(count);
-        scratch.nearest.resize(count);
-        scratch.rescan.resize(count);
+    if (scratch.nearest.size() < stride) { // padded: nearest_rows() reads and writes whole lanes
+        scratch.nearest_distance.resize(stride);
+        scratch.nearest.resize(stride);
+        scratch.rescan.resize(stride);
     }
     const bool use_matrix = variant == CombineVariant::Matrix;
     const size_t matrix_floats = use_matrix ? size_t(count) * stride : stride;

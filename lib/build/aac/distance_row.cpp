@@ -121,6 +121,49 @@ __attribute__((target("avx"))) uint32_t distance_row_argmin_avx(const BoxColumns
 }
 
 
+/// nearest_rows() with eight lanes: row i covers the slots above it only and
+/// leaves its distances as column minima for the rows below them.
+__attribute__((target("avx"))) void nearest_rows_avx(const BoxColumns &b, uint32_t count, float scale,
+                                                      uint32_t first, uint32_t last, float *nd, uint32_t *nn) {
+    const __m256 inf = _mm256_set1_ps(INFINITY), end = _mm256_set1_ps(float(count)), eight = _mm256_set1_ps(8.0f);
+    for (uint32_t i = first; i < last; ++i) {
+        const float q[6] = {b.lo[0][i], b.lo[1][i], b.lo[2][i], b.hi[0][i], b.hi[1][i], b.hi[2][i]};
+        const QueryAvx query = query_avx(q, scale);
+        const __m256 self = _mm256_set1_ps(float(i));
+        const __m256 row_bits = _mm256_castsi256_ps(_mm256_set1_epi32(int(i)));
+        const uint32_t start = (i + 1) & ~7u;
+        __m256 index = _mm256_add_ps(_mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_ps(float(start)));
+        __m256 m = inf, at = _mm256_setzero_ps();
+        for (uint32_t j = start; j < count; j += 8, index = _mm256_add_ps(index, eight)) {
+            const __m256 area = distances_avx(b, j, query);
+            const __m256 above = _mm256_and_ps(_mm256_cmp_ps(index, self, _CMP_GT_OQ), _mm256_cmp_ps(index, end, _CMP_LT_OQ));
+            const __m256 candidate = _mm256_or_ps(_mm256_and_ps(above, area), _mm256_andnot_ps(above, inf));
+            const __m256 less = _mm256_cmp_ps(candidate, m, _CMP_LT_OQ);
+            m = _mm256_min_ps(candidate, m);
+            at = _mm256_or_ps(_mm256_and_ps(less, index), _mm256_andnot_ps(less, at));
+            // The slots above i: row i is their nearest lower row if strictly
+            // closer than the rows before it (so the lowest row wins ties).
+            const __m256 column = _mm256_loadu_ps(nd + j);
+            const __m256 closer = _mm256_cmp_ps(candidate, column, _CMP_LT_OQ);
+            _mm256_storeu_ps(nd + j, _mm256_or_ps(_mm256_and_ps(closer, candidate), _mm256_andnot_ps(closer, column)));
+            float *owner = reinterpret_cast<float *>(nn + j);
+            _mm256_storeu_ps(owner, _mm256_or_ps(_mm256_and_ps(closer, row_bits), _mm256_andnot_ps(closer, _mm256_loadu_ps(owner))));
+        }
+        __m256 h = _mm256_min_ps(m, _mm256_permute2f128_ps(m, m, 1));
+        h = _mm256_min_ps(h, _mm256_shuffle_ps(h, h, _MM_SHUFFLE(1, 0, 3, 2)));
+        h = _mm256_min_ps(h, _mm256_shuffle_ps(h, h, _MM_SHUFFLE(2, 3, 0, 1)));
+        const float up = _mm256_cvtss_f32(h);
+        if (nd[i] <= up) continue; // the nearest lies below i (or no slot lies above it)
+        alignas(32) float where[8];
+        _mm256_store_ps(where, at);
+        int lanes = _mm256_movemask_ps(_mm256_cmp_ps(m, h, _CMP_EQ_OQ));
+        float arg = where[__builtin_ctz(unsigned(lanes))];
+        for (lanes &= lanes - 1; lanes; lanes &= lanes - 1) arg = std::min(arg, where[__builtin_ctz(unsigned(lanes))]);
+        nd[i] = up;
+        nn[i] = uint32_t(arg);
+    }
+}
+
 // GCC 12's avx512fintrin.h warns of its own self-initialised placeholder
 // operands (`__Y = __Y`) once they are inlined.
 #if defined(__GNUC__) && !defined(__clang__)
@@ -304,6 +347,20 @@ uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const floa
     distance_row(boxes, count, query, scale, out);
     out[self] = INFINITY;
     return argmin_row(out, count, best);
+}
+
+void nearest_rows(const BoxColumns &boxes, uint32_t count, float scale, uint32_t first, uint32_t last, float *nd,
+                  uint32_t *nn, float *scratch) {
+#ifdef AACBVH_X86
+    if (distance_kernel() >= DistanceKernel::Avx && count < kFloatIndexLimit) {
+        nearest_rows_avx(boxes, count, scale, first, last, nd, nn);
+        return;
+    }
+#endif
+    for (uint32_t i = first; i < last; ++i) {
+        const float q[6] = {boxes.lo[0][i], boxes.lo[1][i], boxes.lo[2][i], boxes.hi[0][i], boxes.hi[1][i], boxes.hi[2][i]};
+        nn[i] = distance_row_argmin(boxes, count, q, scale, scratch, i, nd[i]);
+    }
 }
 
 void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out) {

@@ -29,6 +29,19 @@ void distance_row(const BoxColumns &boxes, uint32_t count, const float query[6],
 uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const float query[6], float scale, float *out,
                              uint32_t self, float &best);
 
+/// The first nearest neighbours of a combine, rows [first, last) of them: for
+/// each i there, nd[i] and nn[i] as distance_row_argmin(boxes, count, box i,
+/// scale, ., i, nd[i]) gives them. The AVX kernels compute d(i, j) for j > i
+/// only, once per pair (d(i, j) and d(j, i) are the same float): row i leaves
+/// in nd[j] and nn[j], for each j > i, the smallest d(h, j) over the rows
+/// h <= i and the lowest such h, and row j then takes the nearer of that and
+/// its own part (the lower index on ties). So nd and nn must start at +inf
+/// and 0 over [0, count rounded up to a multiple of 8) (they are read and
+/// written that far), and rows [0, first) must be done. The other kernels
+/// compute whole rows into `scratch` (count padded floats).
+void nearest_rows(const BoxColumns &boxes, uint32_t count, float scale, uint32_t first, uint32_t last, float *nd,
+                  uint32_t *nn, float *scratch);
+
 /// Index of the smallest of row[0, count) (the lowest such index on ties),
 /// with its value in `best`; count >= 1. Reads only row[0, count).
 uint32_t argmin_row(const float *row, uint32_t count, float &best);
