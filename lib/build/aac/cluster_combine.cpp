@@ -62,6 +62,26 @@ private:
     BoxColumns cols_;
 };
 
+/// update_nearest()'s rules one slot at a time, for slots [j, live) (the
+/// SIMD loops' tails); appends to rescan[rescans ...] and returns the new count.
+inline uint32_t update_nearest_from(uint32_t j, const float *da, float *nd, uint32_t *nn, uint32_t live, uint32_t a,
+                                    uint32_t b, uint32_t last, uint32_t *rescan, uint32_t rescans) {
+    for (; j < live; ++j) {
+        if (j == a) continue;
+        uint32_t &p = nn[j];
+        if (p == a || p == b) {
+            rescan[rescans++] = j;
+            continue;
+        }
+        if (p == last) p = b;
+        if (da[j] < nd[j] || (da[j] == nd[j] && a < p)) {
+            nd[j] = da[j];
+            p = a;
+        }
+    }
+    return rescans;
+}
+
 /// The nearest-neighbour bookkeeping after a merge, for every live slot j
 /// but a: clusters a and b (a < b) merged into slot a, the last live cluster
 /// moved from slot `last` (== live) into slot b, and da[j] = d(a, j). A slot
@@ -98,20 +118,7 @@ uint32_t update_nearest(const float *da, float *nd, uint32_t *nn, uint32_t live,
         }
     }
 #endif
-    for (; j < live; ++j) {
-        if (j == a) continue;
-        uint32_t &p = nn[j];
-        if (p == a || p == b) {
-            rescan[rescans++] = j;
-            continue;
-        }
-        if (p == last) p = b;
-        if (da[j] < nd[j] || (da[j] == nd[j] && a < p)) {
-            nd[j] = da[j];
-            p = a;
-        }
-    }
-    return rescans;
+    return update_nearest_from(j, da, nd, nn, live, a, b, last, rescan, rescans);
 }
 
 #ifdef AACBVH_SSE2
@@ -141,20 +148,7 @@ __attribute__((target("avx2"))) uint32_t update_nearest_avx2(const float *da, fl
         for (int bits = _mm256_movemask_ps(_mm256_castsi256_ps(again)); bits; bits &= bits - 1)
             rescan[rescans++] = j + uint32_t(__builtin_ctz(unsigned(bits)));
     }
-    for (; j < live; ++j) { // the scalar rules of update_nearest()
-        if (j == a) continue;
-        uint32_t &p = nn[j];
-        if (p == a || p == b) {
-            rescan[rescans++] = j;
-            continue;
-        }
-        if (p == last) p = b;
-        if (da[j] < nd[j] || (da[j] == nd[j] && a < p)) {
-            nd[j] = da[j];
-            p = a;
-        }
-    }
-    return rescans;
+    return update_nearest_from(j, da, nd, nn, live, a, b, last, rescan, rescans);
 }
 #endif
 
