@@ -50,8 +50,8 @@ public:
     /// first joins each rest to its front where that came back (the parts
     /// take() and take_part() cut from one block, freed again; an old rest
     /// joined to a front this build freed stays), so that a handle that
-    /// rebuilds with kept memory finds whole blocks again from its third
-    /// build on (docs/PERFORMANCE.md, row 113).
+    /// rebuilds with kept memory finds whole blocks again from its third or
+    /// fourth build on (docs/PERFORMANCE.md, row 113).
     void begin_build() noexcept;
     void end_build() noexcept;
 
