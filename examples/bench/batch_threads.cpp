@@ -55,11 +55,10 @@ void usage(const char *argv0) {
 
 bool parse(int argc, char **argv, Options &o) {
     for (int i = 1; i < argc; ++i) {
-        const bool has_value = i + 1 < argc;
-        uint64_t v = 0;
-        if (!std::strcmp(argv[i], "--scenes") && has_value) {
-            o.scenes = split(argv[++i], ',');
-        } else if (!std::strcmp(argv[i], "--rays") && has_value) {
+        const Parsed shared = parse_shared_option(argc, argv, i, o.scenes, o.threads, o.runs);
+        if (shared == Parsed::Bad) return false;
+        if (shared == Parsed::Taken) continue;
+        if (!std::strcmp(argv[i], "--rays") && i + 1 < argc) {
             const std::vector<std::string> wh = split(argv[++i], 'x');
             uint64_t w = 0, h = 0;
             if (wh.empty() || wh.size() > 2 || !parse_uint(wh[0].c_str(), w) ||
@@ -67,11 +66,6 @@ bool parse(int argc, char **argv, Options &o) {
                 return false;
             o.width = uint32_t(w);
             o.height = uint32_t(h);
-        } else if (!std::strcmp(argv[i], "--threads") && has_value) {
-            if (!parse_thread_list(argv[++i], o.threads)) return false;
-        } else if (!std::strcmp(argv[i], "--runs") && has_value) {
-            if (!parse_uint(argv[++i], v) || v == 0 || v > 1000) return false;
-            o.runs = int(v);
         } else {
             return false;
         }
@@ -197,8 +191,7 @@ int main(int argc, char **argv) {
         return 2;
     }
 
-    std::printf("aacbvh-batch-threads: %s, %u hardware threads; libaacbvh %s\n", cpu_name().c_str(),
-                std::thread::hardware_concurrency(), aacbvh_version_string());
+    print_machine_line("aacbvh-batch-threads");
     std::printf("whole batches, default parameters, median of %d runs; Mrays/s per thread count "
                 "(speedup over %u thread%s)\n",
                 opt.runs, opt.threads[0], opt.threads[0] == 1 ? "" : "s");

@@ -69,11 +69,11 @@ void usage(const char *argv0) {
 
 bool parse(int argc, char **argv, Options &o) {
     for (int i = 1; i < argc; ++i) {
+        const Parsed shared = parse_shared_option(argc, argv, i, o.scenes, o.threads, o.runs);
+        if (shared == Parsed::Bad) return false;
+        if (shared == Parsed::Taken) continue;
         const bool has_value = i + 1 < argc;
-        uint64_t v = 0;
-        if (!std::strcmp(argv[i], "--scenes") && has_value) {
-            o.scenes = split(argv[++i], ',');
-        } else if (!std::strcmp(argv[i], "--builders") && has_value) {
+        if (!std::strcmp(argv[i], "--builders") && has_value) {
             o.builders.clear();
             for (const std::string &name : split(argv[++i], ',')) {
                 aacbvh_builder b;
@@ -81,13 +81,8 @@ bool parse(int argc, char **argv, Options &o) {
                 o.builders.push_back(b);
             }
             if (o.builders.empty()) return false;
-        } else if (!std::strcmp(argv[i], "--threads") && has_value) {
-            if (!parse_thread_list(argv[++i], o.threads)) return false;
         } else if (!std::strcmp(argv[i], "--keep-build-memory")) {
             o.keep_build_memory = true;
-        } else if (!std::strcmp(argv[i], "--runs") && has_value) {
-            if (!parse_uint(argv[++i], v) || v == 0 || v > 1000) return false;
-            o.runs = int(v);
         } else {
             return false;
         }
@@ -237,8 +232,7 @@ int main(int argc, char **argv) {
         usage(argv[0]);
         return 2;
     }
-    std::printf("aacbvh-build-phases: %s, %u hardware threads; libaacbvh %s\n", cpu_name().c_str(),
-                std::thread::hardware_concurrency(), aacbvh_version_string());
+    print_machine_line("aacbvh-build-phases");
     std::printf("%s, default parameters, median of %d builds in ms (speedup over %u thread%s)\n",
                 opt.keep_build_memory ? "one handle rebuilt with kept build memory" : "fresh handle per build",
                 opt.runs, opt.threads[0], opt.threads[0] == 1 ? "" : "s");

@@ -6,10 +6,13 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <aacbvh/aacbvh.h>
 
 #include "scene.h"
 
@@ -49,6 +52,31 @@ inline bool parse_thread_list(const char *s, std::vector<uint32_t> &out) {
     return !out.empty();
 }
 
+/// What parse_shared_option() made of argv[i].
+enum class Parsed { Taken, Bad, Other };
+
+/// The options aacbvh-batch-threads and aacbvh-build-phases share: --scenes
+/// LIST, --threads LIST (parse_thread_list) and --runs N (1 to 1000). Taken:
+/// i now points at the option's value; Bad: a missing or wrong value; Other:
+/// not one of these.
+inline Parsed parse_shared_option(int argc, char **argv, int &i, std::vector<std::string> &scenes,
+                                  std::vector<uint32_t> &threads, int &runs) {
+    const char *a = argv[i];
+    const bool known = !std::strcmp(a, "--scenes") || !std::strcmp(a, "--threads") || !std::strcmp(a, "--runs");
+    if (!known) return Parsed::Other;
+    if (i + 1 >= argc) return Parsed::Bad;
+    const char *value = argv[++i];
+    if (!std::strcmp(a, "--scenes")) {
+        scenes = split(value, ',');
+        return Parsed::Taken;
+    }
+    if (!std::strcmp(a, "--threads")) return parse_thread_list(value, threads) ? Parsed::Taken : Parsed::Bad;
+    uint64_t v = 0;
+    if (!parse_uint(value, v) || v == 0 || v > 1000) return Parsed::Bad;
+    runs = int(v);
+    return Parsed::Taken;
+}
+
 /// The thread counts a benchmark uses when none are asked for: 1 and this
 /// machine's hardware threads.
 inline std::vector<uint32_t> default_thread_counts() {
@@ -69,6 +97,13 @@ inline std::string cpu_name() {
         }
     }
     return "unknown CPU";
+}
+
+/// The first line of a benchmark's report: the program, the CPU (as lscpu
+/// names it), its hardware threads and the library's version.
+inline void print_machine_line(const char *program) {
+    std::printf("%s: %s, %u hardware threads; libaacbvh %s\n", program, cpu_name().c_str(),
+                std::thread::hardware_concurrency(), aacbvh_version_string());
 }
 
 /// The scenes a --scenes list names, in its order: the entry "shared" stands
