@@ -71,7 +71,7 @@ void BlockCache::begin_build() noexcept {
 }
 
 void BlockCache::end_build() noexcept {
-    join_neighbours(); // first: an old block joined to one this build freed stays
+    join_rests(); // first: an old block joined to one this build freed stays
     size_t kept = 0;
     for (size_t i = 0; i < count_; ++i) {
         if (blocks_[i].old)
@@ -82,7 +82,7 @@ void BlockCache::end_build() noexcept {
     count_ = kept;
 }
 
-void BlockCache::join_neighbours() noexcept {
+void BlockCache::join_rests() noexcept {
     // By address (insertion sort: at most kMaxBlocks), then each rest that
     // starts where the block before it ends becomes part of that block:
     // address ranges never overlap, so that block lies in the rest's own

@@ -69,7 +69,7 @@ public:
     };
 
 private:
-    void join_neighbours() noexcept;
+    void join_rests() noexcept;
     struct Block {
         void *pointer;
         size_t bytes;

@@ -175,7 +175,9 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
     // Work between two polls is bounded in distance evaluations: a combine
     // of 2^20 clusters (delta 2^20, or alpha = 1) does 2^40 in its first scan.
     PollingCounter work(ctx);
+#ifdef AACBVH_SSE2
     const bool avx2 = distance_kernel() >= DistanceKernel::Avx2; // update_nearest_avx2()
+#endif
     auto rows_done = [&work](uint32_t rows, uint32_t length) {
         testing::count_distances(uint64_t(rows) * length);
         work.add(uint64_t(rows) * length);
@@ -369,7 +371,7 @@ uint32_t combine_few(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32
             ids[b] = ids[last];
             for (uint32_t j = 0; j < last; ++j) {
                 if (j == b) continue;
-                const float v = j < last ? d[j][last] : d[last][j];
+                const float v = d[j][last]; // j < last
                 if (j < b) d[j][b] = v;
                 else d[b][j] = v;
             }

@@ -51,20 +51,40 @@ template <int kVectors> struct SmallCombine {
     static int registers(uint32_t live) { return live <= 8 ? 1 : int((live + 7) / 8); }
     static constexpr int cap(int n) { return n < kVectors ? n : kVectors; }
 
-    /// d(i, j) for every lane j into `row`: +inf where j == i or j >= live.
-    /// Returns the smallest entry's slot (the lowest on ties) and its value.
-    uint32_t nearest(uint32_t i, uint32_t live, float &best) {
+    /// op.run<K>() with K = registers(live): one instantiation per register
+    /// count. (Function objects, not lambdas: the target region does not
+    /// reach into lambdas.)
+    template <class Op> static auto by_registers(uint32_t live, const Op &op) {
         switch (registers(live)) {
-        case 1: return nearest_in<cap(1)>(i, live, best);
-        case 2: return nearest_in<cap(2)>(i, live, best);
-        case 3: return nearest_in<cap(3)>(i, live, best);
-        case 4: return nearest_in<cap(4)>(i, live, best);
-        case 5: return nearest_in<cap(5)>(i, live, best);
-        case 6: return nearest_in<cap(6)>(i, live, best);
-        case 7: return nearest_in<cap(7)>(i, live, best);
-        default: return nearest_in<kVectors>(i, live, best);
+        case 1: return op.template run<cap(1)>();
+        case 2: return op.template run<cap(2)>();
+        case 3: return op.template run<cap(3)>();
+        case 4: return op.template run<cap(4)>();
+        case 5: return op.template run<cap(5)>();
+        case 6: return op.template run<cap(6)>();
+        case 7: return op.template run<cap(7)>();
+        default: return op.template run<kVectors>();
         }
     }
+    struct Nearest {
+        SmallCombine &s;
+        uint32_t i, live;
+        float &best;
+        template <int K> uint32_t run() const { return s.template nearest_in<K>(i, live, best); }
+    };
+    struct ClosestPair {
+        const SmallCombine &s;
+        template <int K> uint32_t run() const { return s.template closest_pair_in<K>(); }
+    };
+    struct Update {
+        SmallCombine &s;
+        uint32_t a, b, last, live;
+        template <int K> void run() const { s.template update_in<K>(a, b, last, live); }
+    };
+
+    /// d(i, j) for every lane j into `row`: +inf where j == i or j >= live.
+    /// Returns the smallest entry's slot (the lowest on ties) and its value.
+    uint32_t nearest(uint32_t i, uint32_t live, float &best) { return by_registers(live, Nearest{*this, i, live, best}); }
 
     /// nearest() over the first kUsed registers (slots [0, 8 kUsed) hold every live one).
     template <int kUsed> uint32_t nearest_in(uint32_t i, uint32_t live, float &best) {
@@ -105,18 +125,7 @@ template <int kVectors> struct SmallCombine {
     }
 
     /// The smallest nd among the live slots (the lowest on ties; lanes past live hold +inf).
-    uint32_t closest_pair(uint32_t live) const {
-        switch (registers(live)) {
-        case 1: return closest_pair_in<cap(1)>();
-        case 2: return closest_pair_in<cap(2)>();
-        case 3: return closest_pair_in<cap(3)>();
-        case 4: return closest_pair_in<cap(4)>();
-        case 5: return closest_pair_in<cap(5)>();
-        case 6: return closest_pair_in<cap(6)>();
-        case 7: return closest_pair_in<cap(7)>();
-        default: return closest_pair_in<kVectors>();
-        }
-    }
+    uint32_t closest_pair(uint32_t live) const { return by_registers(live, ClosestPair{*this}); }
 
     template <int kUsed> uint32_t closest_pair_in() const {
         __m256 r[kUsed];
@@ -134,16 +143,7 @@ template <int kVectors> struct SmallCombine {
     /// again; the others follow a partner moved from last to b and take a when
     /// it is closer (or as close with a lower slot). The scalar loop's rules.
     void update(uint32_t a, uint32_t b, uint32_t last, uint32_t live) {
-        switch (registers(live)) {
-        case 1: return update_in<cap(1)>(a, b, last, live);
-        case 2: return update_in<cap(2)>(a, b, last, live);
-        case 3: return update_in<cap(3)>(a, b, last, live);
-        case 4: return update_in<cap(4)>(a, b, last, live);
-        case 5: return update_in<cap(5)>(a, b, last, live);
-        case 6: return update_in<cap(6)>(a, b, last, live);
-        case 7: return update_in<cap(7)>(a, b, last, live);
-        default: return update_in<kVectors>(a, b, last, live);
-        }
+        by_registers(live, Update{*this, a, b, last, live});
     }
 
     template <int kUsed> void update_in(uint32_t a, uint32_t b, uint32_t last, uint32_t live) {
