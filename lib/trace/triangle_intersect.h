@@ -15,10 +15,18 @@
 
 namespace aacbvh {
 
+/// Four doubles, one per axis and a spare 0 (GCC / Clang vector extension):
+/// the hit distance's differences, products and comparisons run on all three
+/// axes at once, each lane rounding exactly as the scalar operation would
+/// (AVX registers in the AVX2 kernel, SSE2 pairs elsewhere; no FMA anywhere,
+/// lib/CMakeLists.txt).
+typedef double Double4 __attribute__((vector_size(32)));
+typedef long long Long4 __attribute__((vector_size(32)));
+
 /// Per-ray constants of the watertight test (section 3 of the paper).
 struct TriangleRay {
     float org[3];
-    double org_d[3], dir_d[3]; ///< org and dir in double, for the hit distance (triangle_distance_of())
+    Double4 org_d, dir_d; ///< org and dir in double (lane 3: 0), for the hit distance (triangle_distance_of())
     int kx, ky, kz;   ///< kz: dominant axis of dir; kx, ky the other two, swapped to keep winding
     float sx, sy;     ///< shear: dir[kx] / dir[kz], dir[ky] / dir[kz] (at most 1 in magnitude)
 };
@@ -27,10 +35,8 @@ struct TriangleRay {
 inline TriangleRay make_triangle_ray(const float org[3], const float dir[3]) {
     TriangleRay r;
     r.org[0] = org[0]; r.org[1] = org[1]; r.org[2] = org[2];
-    for (int k = 0; k < 3; ++k) {
-        r.org_d[k] = org[k];
-        r.dir_d[k] = dir[k];
-    }
+    r.org_d = Double4{org[0], org[1], org[2], 0.0};
+    r.dir_d = Double4{dir[0], dir[1], dir[2], 0.0};
     const float ax = std::fabs(dir[0]), ay = std::fabs(dir[1]), az = std::fabs(dir[2]);
     int kz = 0;
     if (ay > ax) kz = 1;
@@ -121,27 +127,24 @@ template <class Vertices>
 /// other hit the plane point lies in the box and nothing changes.
 /// Returns false when no finite distance comes out.
 template <class Vertices> inline bool triangle_distance_of(const TriangleRay &r, const Vertices &tri, double &t) {
-    double e1[3], e2[3], w[3];
-    for (int k = 0; k < 3; ++k) {
-        const double p0 = tri.at(0, k);
-        e1[k] = double(tri.at(1, k)) - p0;
-        e2[k] = double(tri.at(2, k)) - p0;
-        w[k] = p0 - r.org_d[k];
-    }
-    const double n0 = e1[1] * e2[2] - e1[2] * e2[1];
-    const double n1 = e1[2] * e2[0] - e1[0] * e2[2];
-    const double n2 = e1[0] * e2[1] - e1[1] * e2[0];
-    const double den = r.dir_d[0] * n0 + r.dir_d[1] * n1 + r.dir_d[2] * n2;
-    t = (w[0] * n0 + w[1] * n1 + w[2] * n2) / den;
+    const Double4 p0{tri.at(0, 0), tri.at(0, 1), tri.at(0, 2), 0.0};
+    const Double4 p1{tri.at(1, 0), tri.at(1, 1), tri.at(1, 2), 0.0};
+    const Double4 p2{tri.at(2, 0), tri.at(2, 1), tri.at(2, 2), 0.0};
+    const Double4 e1 = p1 - p0, e2 = p2 - p0, w = p0 - r.org_d;
+    // n = e1 x e2: lane k is e1[k+1] e2[k+2] - e1[k+2] e2[k+1].
+    const Double4 n = __builtin_shufflevector(e1, e1, 1, 2, 0, 3) * __builtin_shufflevector(e2, e2, 2, 0, 1, 3) -
+                      __builtin_shufflevector(e1, e1, 2, 0, 1, 3) * __builtin_shufflevector(e2, e2, 1, 2, 0, 3);
+    const Double4 dn = r.dir_d * n, wn = w * n;
+    const double den = (dn[0] + dn[1]) + dn[2];
+    t = ((wn[0] + wn[1]) + wn[2]) / den;
     // The plane point, relative to p0, inside the box of the three vertices
-    // (the common case): t stands. Comparisons are false for NaN.
-    bool inside = true;
-    for (int k = 0; k < 3; ++k) {
-        const double x = t * r.dir_d[k] - w[k];
-        const double lo = std::min(0.0, std::min(e1[k], e2[k])), hi = std::max(0.0, std::max(e1[k], e2[k]));
-        inside = inside && x >= lo && x <= hi;
-    }
-    if (inside) return true;
+    // (the common case): t stands. Comparisons are false for NaN; lane 3
+    // (0 * t - 0) is left out of the answer.
+    const Double4 zero{0.0, 0.0, 0.0, 0.0};
+    const Double4 x = Double4{t, t, t, t} * r.dir_d - w;
+    const Double4 lo = e1 < e2 ? e1 : e2, hi = e1 > e2 ? e1 : e2;
+    const Long4 inside = (x >= (lo < zero ? lo : zero)) & (x <= (hi > zero ? hi : zero));
+    if (inside[0] & inside[1] & inside[2]) return true;
     return clamp_to_triangle_box(r, tri, t, t);
 }
 
