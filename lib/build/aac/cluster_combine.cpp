@@ -490,6 +490,8 @@ CombineScratch &CombineScratchPool::local() {
     return *mine;
 }
 
+static_assert(kFewCombine <= 8, "combine_few_avx2 holds the clusters in eight lanes");
+
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
                           float scale, const FlattenRule &rule, SubtreeChoice *choices, CombineScratchPool &scratch_pool,
                           BuildContext &ctx, CombineVariant variant) {
@@ -513,7 +515,9 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
     if (variant == CombineVariant::Small && count <= small_limit) {
         if (count == target + 1 && count <= kSmallCombine)
             return combine_once(tree, ids, free_ids, count, scale, rule, choices);
-        if (count <= kFewCombine) return combine_few(tree, ids, free_ids, count, target, scale, rule, choices);
+        if (count <= kFewCombine)
+            return avx2 ? combine_few_avx2(tree, ids, free_ids, count, target, scale, rule, choices)
+                        : combine_few(tree, ids, free_ids, count, target, scale, rule, choices);
         if (kernel == DistanceKernel::Avx512 && count > 8)
             return combine_small_avx512(tree, ids, free_ids, count, target, scale, rule, choices);
         if (avx2 && count > 8) return combine_small_avx2(tree, ids, free_ids, count, target, scale, rule, choices);

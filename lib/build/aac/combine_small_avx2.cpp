@@ -185,7 +185,109 @@ uint32_t run(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count
     return greedy_loop(s, tree, ids, free_ids, count, target, rule, choices);
 }
 
+/// d(i, j) for the eight lanes j of the few-cluster columns c (lo x, y, z,
+/// hi x, y, z): the operations of scaled_union_half_area() in the same order,
+/// as in nearest_in(). `at_i` holds i in every lane.
+inline __m256 few_row(const __m256 (&c)[6], __m256i at_i, __m256 scale) {
+    __m256 d[3];
+    for (int k = 0; k < 3; ++k)
+        d[k] = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(c[k + 3], _mm256_permutevar8x32_ps(c[k + 3], at_i)),
+                                           _mm256_min_ps(c[k], _mm256_permutevar8x32_ps(c[k], at_i))),
+                             scale);
+    const __m256 area =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[1]), _mm256_mul_ps(d[1], d[2])), _mm256_mul_ps(d[2], d[0]));
+    return _mm256_min_ps(area, _mm256_set1_ps(FLT_MAX)); // NaN and overflow: FLT_MAX, as the scalar clamp
+}
+
+/// Lane `at` of the columns set to box b (whole-register blends: no store of
+/// one lane is ever read back by a wider load, which would stall).
+inline void set_few_lane(__m256 (&c)[6], __m256 at, const Box &b) {
+    for (int k = 0; k < 3; ++k) {
+        c[k] = _mm256_blendv_ps(c[k], _mm256_set1_ps(b.lo[k]), at);
+        c[k + 3] = _mm256_blendv_ps(c[k + 3], _mm256_set1_ps(b.hi[k]), at);
+    }
+}
+
+/// Row `row` of the distances after slot `slot` changed: the whole new row,
+/// then lane `slot` of every row below it (the upper triangle is what the
+/// pair scan reads; d(j, slot) = d(slot, j)).
+inline void set_few_row(__m256 (&rows)[7], const __m256 (&c)[6], uint32_t slot, __m256 scale) {
+    const __m256i at_i = _mm256_set1_epi32(int(slot));
+    const __m256 r = few_row(c, at_i, scale);
+    if (slot < 7) rows[slot] = r;
+    const __m256 at = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), at_i));
+    for (uint32_t j = 0; j < slot; ++j)
+        rows[j] = _mm256_blendv_ps(rows[j], _mm256_permutevar8x32_ps(r, _mm256_set1_epi32(int(j))), at);
+}
+
 } // namespace
+
+uint32_t combine_few_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
+                          float scale, const FlattenRule &rule, SubtreeChoice *choices) {
+    const uint32_t n = tree.leaf_count();
+    const __m256 vscale = _mm256_set1_ps(scale);
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256 inf = _mm256_set1_ps(INFINITY);
+    Box box[8];
+    for (uint32_t i = 0; i < 8; ++i) box[i] = tree.boxes[ids[i < count ? i : 0]]; // lanes past count: harmless copies
+    __m256 c[6]; // the columns, built in registers (no store of one lane read back by a wider load)
+    for (int k = 0; k < 3; ++k) {
+        c[k] = _mm256_setr_ps(box[0].lo[k], box[1].lo[k], box[2].lo[k], box[3].lo[k], box[4].lo[k], box[5].lo[k],
+                              box[6].lo[k], box[7].lo[k]);
+        c[k + 3] = _mm256_setr_ps(box[0].hi[k], box[1].hi[k], box[2].hi[k], box[3].hi[k], box[4].hi[k],
+                                  box[5].hi[k], box[6].hi[k], box[7].hi[k]);
+    }
+    __m256 rows[7]; // rows[i]: d(i, j) in lane j, for j > i (the rest unused)
+    for (uint32_t i = 0; i < 7; ++i) rows[i] = i + 1 < count ? few_row(c, _mm256_set1_epi32(int(i)), vscale) : inf;
+
+    uint32_t live = count, used = 0;
+    while (live > target) {
+        // The first pair (a, b), a < b, in slot order at the smallest
+        // distance: the smallest over rows i of lanes i < j < live, then the
+        // lowest bit 8 i + j holding it (rows past live - 2 have no lanes).
+        const __m256i end = _mm256_set1_epi32(int(live));
+        __m256 r[7];
+        __m256 m = inf;
+        for (int i = 0; i < 7; ++i) {
+            const __m256i in = _mm256_and_si256(_mm256_cmpgt_epi32(lane, _mm256_set1_epi32(i)),
+                                                _mm256_cmpgt_epi32(end, lane));
+            r[i] = _mm256_blendv_ps(inf, rows[i], _mm256_castsi256_ps(in));
+            m = _mm256_min_ps(m, r[i]);
+        }
+        m = _mm256_min_ps(m, _mm256_permute2f128_ps(m, m, 1));
+        m = _mm256_min_ps(m, _mm256_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
+        m = _mm256_min_ps(m, _mm256_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
+        uint64_t at = 0;
+        for (int i = 0; i < 7; ++i)
+            at |= uint64_t(unsigned(_mm256_movemask_ps(_mm256_cmp_ps(r[i], m, _CMP_EQ_OQ)))) << (8 * i);
+        const uint32_t first = uint32_t(__builtin_ctzll(at)); // a finite entry exists (live >= 2)
+        const uint32_t a = first >> 3, b = first & 7u;
+
+        const uint32_t node = free_ids[used++];
+        const Box merged = unite(box[a], box[b]);
+        tree.boxes[node] = merged;
+        tree.set_children(node, ids[a], ids[b]);
+        choices[node - n] = rule.inner(merged, cluster_choice(tree, rule, choices, ids[a]),
+                                       cluster_choice(tree, rule, choices, ids[b]));
+
+        const uint32_t last = live - 1;
+        live = last;
+        box[a] = merged;
+        ids[a] = node;
+        set_few_lane(c, _mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, _mm256_set1_epi32(int(a)))), merged);
+        if (b != last) { // the last live cluster moves into slot b
+            box[b] = box[last];
+            ids[b] = ids[last];
+            set_few_lane(c, _mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, _mm256_set1_epi32(int(b)))), box[b]);
+        }
+        if (live > target) { // the distances of the two changed slots, for the next pair scan
+            set_few_row(rows, c, a, vscale);
+            if (b != last) set_few_row(rows, c, b, vscale);
+        }
+    }
+    for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
+    return live;
+}
 
 bool combine_small_avx2_compiled() { return true; }
 
@@ -211,6 +313,10 @@ namespace aacbvh {
 bool combine_small_avx2_compiled() { return false; }
 uint32_t combine_small_avx2(BinaryTree &, uint32_t *, uint32_t *, uint32_t count, uint32_t, float,
                             const FlattenRule &, SubtreeChoice *) {
+    return count;
+}
+uint32_t combine_few_avx2(BinaryTree &, uint32_t *, uint32_t *, uint32_t count, uint32_t, float, const FlattenRule &,
+                          SubtreeChoice *) {
     return count;
 }
 } // namespace aacbvh
