@@ -255,6 +255,7 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     sweep.reset();
 
     // Pass 2, in parallel: nodes and packets.
+    constexpr size_t kAhead = 8;
     Array<Wide8Node> nodes(next);
     Array<TrianglePacket> packet_array(packets ? next_packet : 0);
     Array<uint32_t> packet_owner(packets ? next_packet : 0);
@@ -262,6 +263,13 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     scheduler.parallel_for(0, next, 1u << 10, [&](size_t b, size_t e) {
         for (size_t w = b; w < e; ++w) {
             Wide8Node &node = nodes[w];
+            // The binary nodes behind the slots lie scattered: asked for a
+            // few wide nodes ahead.
+            if (w + kAhead < e)
+                for (int k = 0; k < 8; ++k) {
+                    const uint32_t s = sources[8 * (w + kAhead) + k];
+                    if (s != Wide8Node::kEmptyChild) __builtin_prefetch(&bnodes[s]);
+                }
             for (int k = 0; k < 8; ++k) {
                 const uint32_t s = sources[8 * w + k];
                 if (s == Wide8Node::kEmptyChild) {
