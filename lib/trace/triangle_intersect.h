@@ -131,9 +131,18 @@ template <class Vertices> inline bool triangle_distance_of(const TriangleRay &r,
     const Double4 p1{tri.at(1, 0), tri.at(1, 1), tri.at(1, 2), 0.0};
     const Double4 p2{tri.at(2, 0), tri.at(2, 1), tri.at(2, 2), 0.0};
     const Double4 e1 = p1 - p0, e2 = p2 - p0, w = p0 - r.org_d;
-    // n = e1 x e2: lane k is e1[k+1] e2[k+2] - e1[k+2] e2[k+1].
-    const Double4 n = __builtin_shufflevector(e1, e1, 1, 2, 0, 3) * __builtin_shufflevector(e2, e2, 2, 0, 1, 3) -
-                      __builtin_shufflevector(e1, e1, 2, 0, 1, 3) * __builtin_shufflevector(e2, e2, 1, 2, 0, 3);
+    // n = e1 x e2: lane k is e1[k+1] e2[k+2] - e1[k+2] e2[k+1], from the
+    // lanes rotated to (y, z, x) and (z, x, y): one permute each where the
+    // compiler has __builtin_shufflevector (GCC 12, Clang), else built lane by
+    // lane (the same values, a few more instructions).
+#if defined(__has_builtin) && __has_builtin(__builtin_shufflevector)
+    const Double4 e1_yzx = __builtin_shufflevector(e1, e1, 1, 2, 0, 3), e1_zxy = __builtin_shufflevector(e1, e1, 2, 0, 1, 3);
+    const Double4 e2_yzx = __builtin_shufflevector(e2, e2, 1, 2, 0, 3), e2_zxy = __builtin_shufflevector(e2, e2, 2, 0, 1, 3);
+#else
+    const Double4 e1_yzx{e1[1], e1[2], e1[0], 0.0}, e1_zxy{e1[2], e1[0], e1[1], 0.0};
+    const Double4 e2_yzx{e2[1], e2[2], e2[0], 0.0}, e2_zxy{e2[2], e2[0], e2[1], 0.0};
+#endif
+    const Double4 n = e1_yzx * e2_zxy - e1_zxy * e2_yzx;
     const Double4 dn = r.dir_d * n, wn = w * n;
     const double den = (dn[0] + dn[1]) + dn[2];
     t = ((wn[0] + wn[1]) + wn[2]) / den;

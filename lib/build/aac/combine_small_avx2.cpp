@@ -208,9 +208,9 @@ inline void set_few_lane(__m256 (&c)[6], __m256 at, const Box &b) {
     }
 }
 
-/// Row `row` of the distances after slot `slot` changed: the whole new row,
-/// then lane `slot` of every row below it (the upper triangle is what the
-/// pair scan reads; d(j, slot) = d(slot, j)).
+/// The distances of slot `slot` after its box changed: its own row (d(slot,
+/// j) in lane j), then lane `slot` of the rows j < slot, since the pair scan
+/// reads the upper triangle and d(j, slot) = d(slot, j).
 inline void set_few_row(__m256 (&rows)[7], const __m256 (&c)[6], uint32_t slot, __m256 scale) {
     const __m256i at_i = _mm256_set1_epi32(int(slot));
     const __m256 r = few_row(c, at_i, scale);
