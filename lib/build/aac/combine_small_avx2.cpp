@@ -210,11 +210,12 @@ inline void set_few_lane(__m256 (&c)[6], __m256 at, const Box &b) {
 
 /// The distances of slot `slot` after its box changed: its own row (d(slot,
 /// j) in lane j), then lane `slot` of the rows j < slot, since the pair scan
-/// reads the upper triangle and d(j, slot) = d(slot, j).
+/// reads the upper triangle and d(j, slot) = d(slot, j). The changed slots
+/// are a and b of a merge, both below its last live slot, so slot < 7.
 inline void set_few_row(__m256 (&rows)[7], const __m256 (&c)[6], uint32_t slot, __m256 scale) {
     const __m256i at_i = _mm256_set1_epi32(int(slot));
     const __m256 r = few_row(c, at_i, scale);
-    if (slot < 7) rows[slot] = r;
+    rows[slot] = r;
     const __m256 at = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), at_i));
     for (uint32_t j = 0; j < slot; ++j)
         rows[j] = _mm256_blendv_ps(rows[j], _mm256_permutevar8x32_ps(r, _mm256_set1_epi32(int(j))), at);
