@@ -71,7 +71,7 @@ void Params::set_int(int32_t key, int64_t value) {
         builder = info->value;
         if (info->preset) aac = info->preset();
         if (builder == AACBVH_BUILDER_AAC) { // the paper's AAC with the values in force
-            aac.top_from = 0;
+            aac.own_from = 0;
             aac.root_split_levels = 0;
         }
         break;
@@ -80,7 +80,7 @@ void Params::set_int(int32_t key, int64_t value) {
         if (value < 2 || value > (1 << 20)) reject("AAC delta must be in [2, 2^20], got " + std::to_string(value));
         aac.delta = uint32_t(value);
         builder = AACBVH_BUILDER_AAC;
-        aac.top_from = 0;
+        aac.own_from = 0;
         aac.root_split_levels = 0;
         break;
     case AACBVH_PARAM_MAX_LEAF_SIZE:
@@ -131,14 +131,14 @@ void Params::set_float(int32_t key, double value) {
         if (!(value > 0.0)) reject("AAC c must be > 0, got " + std::to_string(value));
         aac.c = value;
         builder = AACBVH_BUILDER_AAC;
-        aac.top_from = 0;
+        aac.own_from = 0;
         aac.root_split_levels = 0;
         break;
     case AACBVH_PARAM_AAC_ALPHA:
         if (!(value > 0.0 && value <= 1.0)) reject("AAC alpha must be in (0, 1], got " + std::to_string(value));
         aac.alpha = value;
         builder = AACBVH_BUILDER_AAC;
-        aac.top_from = 0;
+        aac.own_from = 0;
         aac.root_split_levels = 0;
         break;
     case AACBVH_PARAM_TRAVERSAL_COST:

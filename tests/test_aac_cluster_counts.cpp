@@ -1,9 +1,11 @@
 // AAC's cluster counts f(n) (build/aac/aac_builder.h) on hand-computed values:
-// the paper's f(n) = ceil(c n^alpha) clamped to [1, n], the top stage that
-// takes other c and alpha from `top_from` primitives up, the presets
-// (AAC-Fast has HQ's counts from 1,024 up, HQ has no top stage; both split
-// the root by SAH), and the parameters: AACBVH_BUILDER_AAC, or setting delta,
-// c or alpha, always builds the paper's AAC (single f(n), greedy root).
+// the paper's f(n) = ceil(c n^alpha) clamped to [1, n], a preset's own counts
+// that take other c and alpha from `own_from` primitives up, the presets
+// (AAC-HQ builds with ceil(2.3 n^0.4) at every size and reports the paper's
+// c; AAC-Fast has HQ's counts from 1,024 up; both split the root by SAH),
+// and the parameters: AACBVH_BUILDER_AAC, or setting delta, c or alpha,
+// always builds the paper's AAC (single f(n), greedy root) with the values in
+// force.
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -34,16 +36,17 @@ void test_paper_f(void **) {
     const AacConfig wide{4, 10.0, 1.0, 0, 0.0, 0.4};
     assert_int_equal(aac_cluster_target(wide, 5), 5);        // never above n
     // The paper's presets make f(delta) = delta / 2 exactly.
-    const AacConfig hq = aacbvh::find_builder(AACBVH_BUILDER_AAC_HQ)->preset();
+    AacConfig hq = aacbvh::find_builder(AACBVH_BUILDER_AAC_HQ)->preset();
+    hq.own_from = 0; // the paper's f(n), as AACBVH_BUILDER_AAC builds it
     assert_int_equal(aac_cluster_target(hq, 20), 10);
     AacConfig fast = aacbvh::find_builder(AACBVH_BUILDER_AAC_FAST)->preset();
     assert_int_equal(aac_cluster_target(fast, 4), 2);
 }
 
-void test_top_stage(void **) {
+void test_own_counts(void **) {
     const AacConfig cfg{4, 1.0, 0.5, 1024, 2.0, 0.5};
     assert_int_equal(aac_cluster_target(cfg, 100), 10);
-    assert_int_equal(aac_cluster_target(cfg, 1023), 32);     // sqrt(1023) = 31.98: below top_from
+    assert_int_equal(aac_cluster_target(cfg, 1023), 32);     // sqrt(1023) = 31.98: below own_from
     assert_int_equal(aac_cluster_target(cfg, 1024), 64);     // 2 * 32
     assert_int_equal(aac_cluster_target(cfg, 4096), 128);
 }
@@ -51,7 +54,16 @@ void test_top_stage(void **) {
 void test_presets(void **) {
     const AacConfig hq = aacbvh::find_builder(AACBVH_BUILDER_AAC_HQ)->preset();
     const AacConfig fast = aacbvh::find_builder(AACBVH_BUILDER_AAC_FAST)->preset();
-    assert_int_equal(hq.top_from, 0);
+    // HQ: the paper's delta, c and alpha reported, ceil(2.3 n^0.4) built at
+    // every size: f(20) = ceil(7.62) = 8, f(1024) = ceil(2.3 * 16) = 37.
+    assert_int_equal(hq.delta, 20);
+    assert_true(std::fabs(hq.c - std::pow(20.0, 0.6) / 2.0) < 1e-15 && hq.alpha == 0.4);
+    assert_int_equal(hq.own_from, 1);
+    assert_true(hq.own_c == 2.3 && hq.own_alpha == 0.4);
+    assert_int_equal(aac_cluster_target(hq, 1), 1);
+    assert_int_equal(aac_cluster_target(hq, 2), 2);          // 3.03, clamped to n
+    assert_int_equal(aac_cluster_target(hq, 20), 8);
+    assert_int_equal(aac_cluster_target(hq, 1024), 37);
     // Both presets split the root's clusters by SAH once; the paper's AAC never.
     assert_int_equal(hq.root_split_levels, 1);
     assert_int_equal(fast.root_split_levels, 1);
@@ -59,20 +71,20 @@ void test_presets(void **) {
     // Fast: the paper's delta, c and alpha below 1,024 primitives, HQ's above.
     assert_int_equal(fast.delta, 4);
     assert_true(std::fabs(fast.c - std::pow(4.0, 0.7) / 2.0) < 1e-15 && fast.alpha == 0.3);
-    assert_int_equal(fast.top_from, 1024);
-    assert_true(fast.top_c == hq.c && fast.top_alpha == hq.alpha);
-    // 1,023 primitives: ceil(1.3195 * 1023^0.3) = 11; 1,024: HQ's ceil(3.0171 * 1024^0.4) = 49.
+    assert_int_equal(fast.own_from, 1024);
+    assert_true(fast.own_c == hq.own_c && fast.own_alpha == hq.own_alpha);
+    // 1,023 primitives: ceil(1.3195 * 1023^0.3) = 11; 1,024: HQ's ceil(2.3 * 1024^0.4) = 37.
     assert_int_equal(aac_cluster_target(fast, 1023), 11);
-    assert_int_equal(aac_cluster_target(fast, 1024), 49);
+    assert_int_equal(aac_cluster_target(fast, 1024), 37);
     assert_int_equal(aac_cluster_target(fast, 1024), aac_cluster_target(hq, 1024));
 }
 
-void test_params_drop_the_top_stage(void **) {
+void test_params_drop_the_own_counts(void **) {
     aacbvh::Params p;
     p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_FAST);
-    assert_int_equal(p.aac.top_from, 1024);
+    assert_int_equal(p.aac.own_from, 1024);
     p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC);     // the values in force, the paper's f(n)
-    assert_int_equal(p.aac.top_from, 0);
+    assert_int_equal(p.aac.own_from, 0);
     assert_int_equal(p.aac.root_split_levels, 0);
     assert_int_equal(p.aac.delta, 4);
     assert_true(p.aac.alpha == 0.3);
@@ -80,18 +92,20 @@ void test_params_drop_the_top_stage(void **) {
     const int32_t keys[] = {AACBVH_PARAM_AAC_DELTA, AACBVH_PARAM_AAC_C, AACBVH_PARAM_AAC_ALPHA};
     for (int32_t key : keys) {
         p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_FAST);
-        assert_int_equal(p.aac.top_from, 1024);
+        assert_int_equal(p.aac.own_from, 1024);
         if (key == AACBVH_PARAM_AAC_DELTA) p.set_int(key, 4);
         else p.set_float(key, key == AACBVH_PARAM_AAC_C ? p.aac.c : 0.3);
         assert_int_equal(p.builder, AACBVH_BUILDER_AAC);
-        assert_int_equal(p.aac.top_from, 0);
+        assert_int_equal(p.aac.own_from, 0);
         assert_int_equal(p.aac.root_split_levels, 0);
     }
     p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_HQ);
-    assert_int_equal(p.aac.top_from, 0);
+    assert_int_equal(p.aac.own_from, 1);
     assert_int_equal(p.aac.root_split_levels, 1);
-    p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC);
+    p.set_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC);     // the paper's HQ f(n), greedy root
+    assert_int_equal(p.aac.own_from, 0);
     assert_int_equal(p.aac.root_split_levels, 0);
+    assert_int_equal(aac_cluster_target(p.aac, 20), 10);
 }
 
 } // namespace
@@ -99,9 +113,9 @@ void test_params_drop_the_top_stage(void **) {
 int main() {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_paper_f),
-        cmocka_unit_test(test_top_stage),
+        cmocka_unit_test(test_own_counts),
         cmocka_unit_test(test_presets),
-        cmocka_unit_test(test_params_drop_the_top_stage),
+        cmocka_unit_test(test_params_drop_the_own_counts),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }

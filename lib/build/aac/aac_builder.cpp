@@ -22,10 +22,11 @@
 namespace aacbvh {
 
 uint32_t aac_cluster_target(const AacConfig &config, uint32_t n) {
-    // The presets make f(delta) an integer (delta / 2); pow() lands a hair above
-    // it (10.000000000000002 for HQ), so round off that noise before the ceil.
-    const bool top = config.top_from != 0 && n >= config.top_from;
-    const double c = top ? config.top_c : config.c, alpha = top ? config.top_alpha : config.alpha;
+    // The paper's presets make f(delta) an integer (delta / 2); pow() lands a
+    // hair above it (10.000000000000002 for HQ), so round off that noise
+    // before the ceil.
+    const bool own = config.own_from != 0 && n >= config.own_from;
+    const double c = own ? config.own_c : config.c, alpha = own ? config.own_alpha : config.alpha;
     const double f = std::ceil(c * std::pow(double(n), alpha) * (1.0 - 1e-12));
     if (!(f >= 1.0)) return 1;
     return f >= double(n) ? n : uint32_t(f);

@@ -15,29 +15,38 @@ namespace aacbvh {
 
 /// AAC parameters (Gu et al. 2013): ranges under `delta` primitives stay
 /// unsplit; a node over n primitives hands f(n) = ceil(c * n^alpha) clusters up.
+/// `c` and `alpha` are the values the API reports (AACBVH_PARAM_AAC_C,
+/// AACBVH_PARAM_AAC_ALPHA): the paper's, for the presets.
 ///
-/// A top stage (ours, not the paper's; issue 17): ranges of at least
-/// `top_from` primitives hand up ceil(top_c * n^top_alpha) instead, so a
-/// preset can keep its cheap f(n) where the work is (the many small ranges)
-/// and still merge the few big clusters at the top from more candidates. The
-/// top merges decide how much the root's children overlap, which rays that
-/// start inside the scene pay for and SAH does not see. top_from = 0: the
-/// paper's single f(n) (AACBVH_BUILDER_AAC always builds that way).
+/// A preset's own counts (ours, not the paper's): ranges of at least
+/// `own_from` primitives hand up ceil(own_c * n^own_alpha) instead.
+/// - AAC-HQ builds with its own counts at every size (own_from = 1): c = 2.3
+///   instead of the paper's 20^0.6 / 2 = 3.02 makes the combines about a
+///   quarter smaller, its builds run about a sixth fewer instructions, and
+///   SAH stayed within 1 % of the paper's c on every scene measured (issue
+///   13; docs/PERFORMANCE.md, change 121).
+/// - AAC-Fast keeps the paper's f(n) where its work is (the many small
+///   ranges) and takes AAC-HQ's counts from 1,024 primitives up, so the few
+///   big clusters at the top merge from more candidates. The top merges
+///   decide how much the root's children overlap, which rays that start
+///   inside the scene pay for and SAH does not see (issue 17).
+/// own_from = 0: the paper's single f(n) (AACBVH_BUILDER_AAC always builds
+/// that way).
 struct AacConfig {
     uint32_t delta = 20;
     double c = 0.0;
     double alpha = 0.4;
-    uint32_t top_from = 0;
-    double top_c = 0.0;
-    double top_alpha = 0.4;
+    uint32_t own_from = 0;
+    double own_c = 0.0;
+    double own_alpha = 0.4;
     /// The root range splits the clusters it receives top-down by SAH for this
     /// many levels (build/aac/top_split.h) and merges each part greedily; 0:
     /// the paper's greedy merge down to one cluster. Ours (issue 17).
     uint32_t root_split_levels = 0;
 };
 
-/// f(n) = ceil(c * n^alpha), or ceil(top_c * n^top_alpha) when top_from != 0
-/// and n >= top_from; never below 1 nor above n.
+/// f(n) = ceil(c * n^alpha), or ceil(own_c * n^own_alpha) when own_from != 0
+/// and n >= own_from; never below 1 nor above n.
 uint32_t aac_cluster_target(const AacConfig &config, uint32_t n);
 
 /// Also makes every node's flattening decision as it is created (into
