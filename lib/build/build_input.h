@@ -27,9 +27,16 @@ struct BuildInput {
 /// vertex index out of range, box min > max), or nullptr if it is fine.
 const char *primitive_problem(const Geometry &geometry, size_t i);
 
+/// How the input pass reads triangles: Fastest takes the SSE path where
+/// there is one (build_input.cpp, triangle_chunk); General sends every
+/// primitive through primitive_problem() and primitive_box(), the reference
+/// the tests hold the fast path to (the same bits).
+enum class InputPath { Fastest, General };
+
 /// Checks the geometry and fills `input`. Throws Error(AACBVH_ERROR_INVALID_GEOMETRY)
 /// naming the first bad primitive, unless skip_invalid leaves bad ones out.
-void compute_build_input(const Geometry &geometry, bool skip_invalid, BuildContext &ctx, BuildInput &input);
+void compute_build_input(const Geometry &geometry, bool skip_invalid, BuildContext &ctx, BuildInput &input,
+                         InputPath path = InputPath::Fastest);
 
 /// The leaves of a builder's tree in the builder's order: leaf i of `out`
 /// (sized already) takes input entry order[i], its box and the caller's

@@ -1,0 +1,170 @@
+// The input pass (build/build_input.h): its triangle fast path (SSE, a
+// triangle at a time) against the general path (every primitive through
+// primitive_problem() and primitive_box()), bit for bit: boxes, primitive
+// ids, the bounds and centroid bounds, the invalid count, and the error
+// message of the first bad triangle. Inputs: random triangles over several
+// chunks, with signed zeros, +-FLT_MAX, denormals, NaN and infinite
+// coordinates, indices out of range, vertex strides of 12, 16 and 20 bytes,
+// non-indexed triangles, at one and three threads.
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+// This cmocka.h has no extern "C" guard of its own.
+extern "C" {
+#include <cmocka.h>
+}
+
+#include <cfloat>
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "build/build_input.h"
+#include "core/error.h"
+
+namespace {
+
+using aacbvh::BuildInput;
+using aacbvh::Geometry;
+using aacbvh::GeometryKind;
+using aacbvh::InputPath;
+
+/// A coordinate drawn from the values that make min, max and the centroid
+/// hard: signed zeros, the largest and smallest floats, denormals, and
+/// ordinary values; `bad` in 1000 are NaN or infinite.
+float coordinate(std::mt19937 &rng, unsigned bad) {
+    const unsigned pick = rng() % 1000;
+    if (pick < bad) {
+        const float specials[] = {NAN, INFINITY, -INFINITY};
+        return specials[rng() % 3];
+    }
+    switch (rng() % 10) {
+    case 0: return 0.0f;
+    case 1: return -0.0f;
+    case 2: return (rng() & 1) ? FLT_MAX : -FLT_MAX;
+    case 3: return (rng() & 1) ? FLT_MIN * 0.25f : -FLT_MIN * 0.5f; // denormal
+    default: return std::uniform_real_distribution<float>(-100.0f, 100.0f)(rng);
+    }
+}
+
+struct Soup {
+    std::vector<float> vertices; // stride floats a vertex, xyz first
+    std::vector<uint32_t> indices;
+    Geometry geometry;
+};
+
+/// `triangles` triangles over `vertex_count` vertices of `stride` bytes;
+/// `bad_index` in 1000 triangles have an index at or past the vertex count.
+void make_soup(Soup &soup, uint32_t seed, size_t triangles, size_t vertex_count, size_t stride, unsigned bad,
+               unsigned bad_index, bool indexed) {
+    std::mt19937 rng(seed);
+    const size_t floats = stride / 4;
+    if (!indexed) vertex_count = 3 * triangles;
+    soup.vertices.assign(vertex_count * floats, 7.0f);
+    for (size_t v = 0; v < vertex_count; ++v)
+        for (size_t a = 0; a < 3; ++a) soup.vertices[v * floats + a] = coordinate(rng, bad);
+    soup.indices.clear();
+    if (indexed) {
+        for (size_t t = 0; t < 3 * triangles; ++t) {
+            uint32_t k = uint32_t(rng() % vertex_count);
+            if (rng() % 3000 < bad_index) k = (rng() & 1) ? uint32_t(vertex_count) : UINT32_MAX;
+            soup.indices.push_back(k);
+        }
+    }
+    Geometry &g = soup.geometry;
+    g = Geometry{};
+    g.kind = GeometryKind::Triangles;
+    g.vertices = soup.vertices.data();
+    g.vertex_count = vertex_count;
+    g.vertex_stride = stride;
+    g.indices = indexed ? soup.indices.data() : nullptr;
+    g.primitive_count = triangles;
+}
+
+bool same_bits(const void *a, const void *b, size_t bytes) { return std::memcmp(a, b, bytes) == 0; }
+
+/// Runs both paths; returns the error message (empty when both succeeded)
+/// after checking they agree on everything.
+std::string compare_paths(const Geometry &g, bool skip_invalid, unsigned threads) {
+    aacbvh::Scheduler scheduler(threads);
+    BuildInput fast, general;
+    std::string fast_error, general_error;
+    try {
+        aacbvh::BuildContext ctx(scheduler, nullptr, nullptr);
+        aacbvh::compute_build_input(g, skip_invalid, ctx, fast, InputPath::Fastest);
+    } catch (const aacbvh::Error &e) {
+        fast_error = e.what();
+    }
+    try {
+        aacbvh::BuildContext ctx(scheduler, nullptr, nullptr);
+        aacbvh::compute_build_input(g, skip_invalid, ctx, general, InputPath::General);
+    } catch (const aacbvh::Error &e) {
+        general_error = e.what();
+    }
+    assert_true(fast_error == general_error);
+    if (!fast_error.empty()) return fast_error;
+    assert_int_equal(fast.size(), general.size());
+    assert_int_equal(fast.invalid_count, general.invalid_count);
+    assert_true(same_bits(fast.boxes.data(), general.boxes.data(), fast.size() * sizeof(aacbvh::Box)));
+    assert_true(same_bits(fast.prim_ids.data(), general.prim_ids.data(), fast.size() * sizeof(uint32_t)));
+    assert_true(same_bits(&fast.bounds, &general.bounds, sizeof fast.bounds));
+    assert_true(same_bits(&fast.centroid_bounds, &general.centroid_bounds, sizeof fast.centroid_bounds));
+    return std::string();
+}
+
+void test_valid_triangles(void **) {
+    Soup soup;
+    const size_t strides[] = {12, 16, 20};
+    for (uint32_t seed = 1; seed <= 6; ++seed) {
+        const size_t stride = strides[seed % 3];
+        make_soup(soup, seed, 40000 + seed * 977, 30000, stride, 0, 0, seed % 2 == 1);
+        for (unsigned threads : {1u, 3u}) {
+            assert_true(compare_paths(soup.geometry, false, threads).empty());
+        }
+    }
+}
+
+void test_invalid_triangles_skipped(void **) {
+    Soup soup;
+    for (uint32_t seed = 11; seed <= 16; ++seed) {
+        make_soup(soup, seed, 50000, 20000, seed % 2 ? 16 : 12, 2, 3, seed != 13);
+        for (unsigned threads : {1u, 3u}) {
+            assert_true(compare_paths(soup.geometry, true, threads).empty());
+        }
+    }
+    // Mutation check on the comparison: the general path must leave some out.
+    make_soup(soup, 11, 50000, 20000, 16, 2, 3, true);
+    aacbvh::Scheduler scheduler(1);
+    aacbvh::BuildContext ctx(scheduler, nullptr, nullptr);
+    BuildInput input;
+    aacbvh::compute_build_input(soup.geometry, true, ctx, input, InputPath::Fastest);
+    assert_true(input.invalid_count > 0);
+    assert_true(input.size() + input.invalid_count == 50000);
+}
+
+void test_first_invalid_named(void **) {
+    Soup soup;
+    for (uint32_t seed = 21; seed <= 24; ++seed) {
+        make_soup(soup, seed, 40000, 20000, 12, seed == 24 ? 0 : 1, seed == 23 ? 1 : 0, seed != 22);
+        if (seed == 24) soup.vertices[3 * soup.indices[3 * 39999 + 2] + 1] = NAN; // the very last triangle
+        for (unsigned threads : {1u, 3u}) {
+            const std::string message = compare_paths(soup.geometry, false, threads);
+            assert_false(message.empty());
+            assert_true(message.find("triangle ") == 0);
+        }
+    }
+}
+
+} // namespace
+
+int main() {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_valid_triangles),
+        cmocka_unit_test(test_invalid_triangles_skipped),
+        cmocka_unit_test(test_first_invalid_named),
+    };
+    return cmocka_run_group_tests(tests, nullptr, nullptr);
+}
