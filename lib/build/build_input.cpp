@@ -82,12 +82,14 @@ ChunkSummary any_chunk(const Geometry &geometry, size_t b, size_t e, BuildInput 
 
 #if defined(__SSE2__)
 /// A vertex as (x, y, z, 0), read without touching the bytes after it.
+/// MOVLPS reads and writes 8 bytes at any float's alignment (a vertex stride
+/// of 12 leaves them 4-byte aligned, which a double load would not allow).
 inline __m128 load_vertex(const float *p) {
-    return _mm_movelh_ps(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double *>(p))), _mm_load_ss(p + 2));
+    return _mm_movelh_ps(_mm_loadl_pi(_mm_setzero_ps(), reinterpret_cast<const __m64 *>(p)), _mm_load_ss(p + 2));
 }
 
 inline void store_xyz(float *out, __m128 v) {
-    _mm_store_sd(reinterpret_cast<double *>(out), _mm_castps_pd(v));
+    _mm_storel_pi(reinterpret_cast<__m64 *>(out), v);
     _mm_store_ss(out + 2, _mm_movehl_ps(v, v));
 }
 
