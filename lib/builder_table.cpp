@@ -27,9 +27,9 @@ double paper_fast_c() { return std::pow(4.0, 0.7) / 2.0; }
 /// AAC-HQ's own counts, f(n) = ceil(2.3 n^0.4) at every size (issue 13): the
 /// paper's c = 3.02 made combines of about 20-30 clusters, most of the build's
 /// time, for SAH that c = 2.3 matched within 1 % on all eight scenes measured
-/// (0.3 % lower on average; moving the paper's c by 1e-4 changed the
-/// bunny's SAH by 0.8 %), with about 16 % fewer instructions a build (docs/PERFORMANCE.md,
-/// change 121).
+/// (0.3 % lower on average; moving the paper's c by 7e-5 changed the
+/// bunny's SAH by 0.8 %), with about 16 % fewer instructions a build
+/// (docs/PERFORMANCE.md, change 121).
 constexpr double kHqOwnC = 2.3;
 
 AacConfig hq_preset() { return AacConfig{20, paper_hq_c(), 0.4, 1, kHqOwnC, 0.4, kRootSplitLevels}; }

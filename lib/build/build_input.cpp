@@ -108,29 +108,23 @@ ChunkSummary triangle_chunk(const Geometry &geometry, size_t b, size_t e, BuildI
     __m128 clo_all = lo_all, chi_all = hi_all;
     const uint32_t vertex_count = uint32_t(std::min<size_t>(geometry.vertex_count, UINT32_MAX));
     const bool all_fit = geometry.vertex_count <= UINT32_MAX;
-    // In locals: the stores below go through types the compiler must assume
-    // may alias the geometry's and the arrays' fields.
-    const char *const vertices = reinterpret_cast<const char *>(geometry.vertices);
-    const size_t stride = geometry.vertex_stride;
-    const uint32_t *const indices = geometry.indices;
+    // A local copy and local pointers: the stores below go through types the
+    // compiler must assume may alias the caller's geometry and the arrays.
+    const Geometry g = geometry;
     Box *const boxes = input.boxes.data();
     uint32_t *const prim_ids = input.prim_ids.data();
     for (size_t i = b; i < e; ++i) {
         uint32_t idx[3];
-        if (indices) {
-            idx[0] = indices[3 * i]; idx[1] = indices[3 * i + 1]; idx[2] = indices[3 * i + 2];
-        } else {
-            idx[0] = uint32_t(3 * i); idx[1] = uint32_t(3 * i + 1); idx[2] = uint32_t(3 * i + 2);
-        }
+        g.triangle_indices(i, idx);
         const bool in_range = all_fit ? (idx[0] < vertex_count) & (idx[1] < vertex_count) & (idx[2] < vertex_count)
                                       : true;
         if (!in_range) {
             add_primitive(geometry, i, input, s);
             continue;
         }
-        const __m128 v0 = load_vertex(reinterpret_cast<const float *>(vertices + idx[0] * stride));
-        const __m128 v1 = load_vertex(reinterpret_cast<const float *>(vertices + idx[1] * stride));
-        const __m128 v2 = load_vertex(reinterpret_cast<const float *>(vertices + idx[2] * stride));
+        const __m128 v0 = load_vertex(g.vertex(idx[0]));
+        const __m128 v1 = load_vertex(g.vertex(idx[1]));
+        const __m128 v2 = load_vertex(g.vertex(idx[2]));
         const __m128 finite = _mm_add_ps(_mm_add_ps(_mm_sub_ps(v0, v0), _mm_sub_ps(v1, v1)), _mm_sub_ps(v2, v2));
         if (_mm_movemask_ps(_mm_cmpneq_ps(finite, _mm_setzero_ps())) != 0) {
             add_primitive(geometry, i, input, s);

@@ -15,6 +15,14 @@
 
 namespace aacbvh {
 
+// Whether the compiler has __builtin_shufflevector (GCC 12, Clang); two
+// steps, since a preprocessor without __has_builtin cannot parse its call.
+#if defined(__has_builtin)
+#if __has_builtin(__builtin_shufflevector)
+#define AACBVH_HAS_SHUFFLEVECTOR 1
+#endif
+#endif
+
 /// Four doubles, one per axis and a spare 0 (GCC / Clang vector extension):
 /// the hit distance's differences, products and comparisons run on all three
 /// axes at once, each lane rounding exactly as the scalar operation would
@@ -135,7 +143,7 @@ template <class Vertices> inline bool triangle_distance_of(const TriangleRay &r,
     // lanes rotated to (y, z, x) and (z, x, y): one permute each where the
     // compiler has __builtin_shufflevector (GCC 12, Clang), else built lane by
     // lane (the same values, a few more instructions).
-#if defined(__has_builtin) && __has_builtin(__builtin_shufflevector)
+#if defined(AACBVH_HAS_SHUFFLEVECTOR)
     const Double4 e1_yzx = __builtin_shufflevector(e1, e1, 1, 2, 0, 3), e1_zxy = __builtin_shufflevector(e1, e1, 2, 0, 1, 3);
     const Double4 e2_yzx = __builtin_shufflevector(e2, e2, 1, 2, 0, 3), e2_zxy = __builtin_shufflevector(e2, e2, 2, 0, 1, 3);
 #else
