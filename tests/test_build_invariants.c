@@ -244,6 +244,44 @@ static void test_real_mesh(void **state) {
     ts_mesh_free(&mesh);
 }
 
+/* The build's peak against its budget (docs/PERFORMANCE.md, row 123): while
+ * the finished binary tree is written, the builders' tree (boxes 48, children
+ * 8 and primitive ids 4 bytes a primitive), the layout's counts of each inner
+ * node's sub-tree (8; the choices' costs are released before) and the
+ * finished tree's nodes (32 bytes each) and indices (4 a primitive) are
+ * alive; nothing else may be. 1 MiB covers the small arrays. Fails if the
+ * costs stay alive (8 bytes a primitive more: 1.6 MB here). */
+static void test_build_peak_budget(void **state) {
+    static const int builders[] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_AAC_FAST, AACBVH_BUILDER_BINNED_SAH};
+    ts_mesh mesh;
+    size_t b;
+    (void)state;
+    assert_true(ts_make_scene(TS_SCENE_GRID, 200000, 5, &mesh));
+    for (b = 0; b < sizeof builders / sizeof builders[0]; ++b) {
+        aacbvh_bvh *bvh = NULL;
+        aacbvh_stats stats;
+        unsigned long long budget;
+        TS_EXPECT_STATUS(aacbvh_bvh_create(g_ctx, &bvh), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, builders[b]), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_triangles(bvh, mesh.vertices, mesh.vertex_count, 3 * sizeof(float),
+                                                  mesh.indices, mesh.triangle_count), AACBVH_OK);
+        TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+        memset(&stats, 0, sizeof stats);
+        stats.struct_size = sizeof stats;
+        TS_EXPECT_STATUS(aacbvh_bvh_get_stats(bvh, &stats), AACBVH_OK);
+        budget = (unsigned long long)stats.primitive_count * (48 + 8 + 4 + 8 + 4) +
+                 (unsigned long long)stats.node_count * 32 + (1ull << 20);
+        print_message("builder %d: %zu triangles, %llu nodes, peak %llu bytes, budget %llu\n", builders[b],
+                      mesh.triangle_count, (unsigned long long)stats.node_count,
+                      (unsigned long long)stats.build_peak_bytes, budget);
+        if (stats.build_peak_bytes > budget)
+            fail_msg("builder %d: build_peak_bytes %llu over the budget %llu", builders[b],
+                     (unsigned long long)stats.build_peak_bytes, budget);
+        aacbvh_bvh_destroy(bvh);
+    }
+    ts_mesh_free(&mesh);
+}
+
 /* The reported SAH cost uses the costs in force when get_stats runs. */
 static void test_sah_cost_follows_params(void **state) {
     ts_mesh mesh;
@@ -353,6 +391,7 @@ int main(void) {
         cmocka_unit_test(test_boxes),
         cmocka_unit_test(test_strided_and_unindexed),
         cmocka_unit_test(test_real_mesh),
+        cmocka_unit_test(test_build_peak_budget),
         cmocka_unit_test(test_sah_cost_follows_params),
         cmocka_unit_test(test_determinism),
     };

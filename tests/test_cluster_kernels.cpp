@@ -310,7 +310,7 @@ struct CombineCase {
         aacbvh::CombineScratchPool pool(nullptr);
         const aacbvh::FlattenRule rule{4, 1.2, 1.0};
         left = aacbvh::combine_clusters(tree, ids.data(), free_ids.data(), uint32_t(ids.size()), target, 1e-2f, rule,
-                                        choices.data(), pool, ctx, variant);
+                                        choices.table(), pool, ctx, variant);
     }
 
     bool same(const CombineCase &o) const {
@@ -320,7 +320,7 @@ struct CombineCase {
             const uint32_t id = n + i; // merge i made inner node n + i (free ids are used in order)
             if (tree.left(id) != o.tree.left(id) || tree.right(id) != o.tree.right(id)) return false;
             if (std::memcmp(&tree.boxes[id], &o.tree.boxes[id], sizeof(aacbvh::Box)) != 0) return false;
-            if (choices[i].cost != o.choices[i].cost || choices[i].leaves != o.choices[i].leaves) return false;
+            if (choices.cost(i) != o.choices.cost(i) || choices.leaves(i) != o.choices.leaves(i)) return false;
         }
         return true;
     }
@@ -333,7 +333,7 @@ struct CombineCase {
 void canonical_combine(CombineCase &c, uint32_t target) {
     const aacbvh::FlattenRule rule{4, 1.2, 1.0};
     const uint32_t n = c.tree.leaf_count();
-    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(c.tree.boxes[id]) : c.choices[id - n]; };
+    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(c.tree.boxes[id]) : c.choices.get(id - n); };
     uint32_t live = uint32_t(c.ids.size()), used = 0;
     while (live > target) {
         uint32_t a = 0, b = 1;
@@ -350,7 +350,7 @@ void canonical_combine(CombineCase &c, uint32_t target) {
         const uint32_t node = c.free_ids[used++];
         c.tree.boxes[node] = aacbvh::unite(c.tree.boxes[c.ids[a]], c.tree.boxes[c.ids[b]]);
         c.tree.set_children(node, c.ids[a], c.ids[b]);
-        c.choices[node - n] = rule.inner(c.tree.boxes[node], choice(c.ids[a]), choice(c.ids[b]));
+        c.choices.set(node - n, rule.inner(c.tree.boxes[node], choice(c.ids[a]), choice(c.ids[b])));
         c.ids[b] = c.ids[live - 1];
         c.ids[a] = node;
         --live;

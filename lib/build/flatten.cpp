@@ -8,8 +8,8 @@ void choose_subtrees(const BinaryTree &tree, const FlattenRule &rule, BuildConte
     const uint32_t n = tree.leaf_count();
     choices.resize(n);
     if (n < 2) return;
-    for (uint32_t k = 0; k < n; ++k) choices[k].prims = 0; // 0 = not decided yet
-    auto choice = [&](uint32_t id) { return tree.is_leaf(id) ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
+    for (uint32_t k = 0; k < n; ++k) choices.set_prims(k, 0); // 0 = not decided yet
+    auto choice = [&](uint32_t id) { return tree.is_leaf(id) ? rule.leaf(tree.boxes[id]) : choices.get(id - n); };
 
     // Post-order with an explicit stack: trees may be as deep as n.
     std::vector<uint32_t> stack{tree.root};
@@ -17,10 +17,10 @@ void choose_subtrees(const BinaryTree &tree, const FlattenRule &rule, BuildConte
     while (!stack.empty()) {
         const uint32_t id = stack.back();
         const uint32_t l = tree.left(id), r = tree.right(id);
-        if (!tree.is_leaf(l) && choices[l - n].prims == 0) { stack.push_back(l); continue; }
-        if (!tree.is_leaf(r) && choices[r - n].prims == 0) { stack.push_back(r); continue; }
+        if (!tree.is_leaf(l) && choices.prims(l - n) == 0) { stack.push_back(l); continue; }
+        if (!tree.is_leaf(r) && choices.prims(r - n) == 0) { stack.push_back(r); continue; }
         stack.pop_back();
-        choices[id - n] = rule.inner(tree.boxes[id], choice(l), choice(r));
+        choices.set(id - n, rule.inner(tree.boxes[id], choice(l), choice(r)));
         if ((++done & 0xFFFF) == 0) ctx.poll();
     }
 }
@@ -39,8 +39,8 @@ public:
     void emit(uint32_t id, uint32_t pos, uint32_t below, uint32_t prim, unsigned depth) {
         // Large sub-trees near the top split into tasks; the rest, and any
         // very deep chain, go through the explicit stack below.
-        while (depth < kParallelDepth && !tree_.is_leaf(id) && choices_[id - n_].leaves > 1 &&
-               choices_[id - n_].prims >= kParallelGrain) {
+        while (depth < kParallelDepth && !tree_.is_leaf(id) && choices_.leaves(id - n_) > 1 &&
+               choices_.prims(id - n_) >= kParallelGrain) {
             const uint32_t l = tree_.left(id), r = tree_.right(id);
             set_inner(id, pos, below);
             const uint32_t left_nodes = 2 * leaves(l) - 1;
@@ -56,8 +56,8 @@ private:
     static constexpr unsigned kParallelDepth = 24;
     static constexpr uint32_t kParallelGrain = 1u << 14;
 
-    uint32_t leaves(uint32_t id) const { return tree_.is_leaf(id) ? 1 : choices_[id - n_].leaves; }
-    uint32_t prims(uint32_t id) const { return tree_.is_leaf(id) ? 1 : choices_[id - n_].prims; }
+    uint32_t leaves(uint32_t id) const { return tree_.is_leaf(id) ? 1 : choices_.leaves(id - n_); }
+    uint32_t prims(uint32_t id) const { return tree_.is_leaf(id) ? 1 : choices_.prims(id - n_); }
 
     void set_inner(uint32_t id, uint32_t pos, uint32_t below) {
         Node &node = out_.nodes[pos];
@@ -120,13 +120,14 @@ private:
 
 } // namespace
 
-double emit_bvh(const BinaryTree &tree, const FlattenRule &rule, const SubtreeChoices &choices, BuildContext &ctx,
+double emit_bvh(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, BuildContext &ctx,
                 Bvh &out) {
     const uint32_t n = tree.leaf_count();
     out.nodes.clear();
     out.prim_ids.clear();
     if (n == 0) return 0.0;
-    const SubtreeChoice root = tree.is_leaf(tree.root) ? rule.leaf(tree.boxes[tree.root]) : choices[tree.root - n];
+    const SubtreeChoice root = tree.is_leaf(tree.root) ? rule.leaf(tree.boxes[tree.root]) : choices.get(tree.root - n);
+    choices.release_costs(); // the layout reads only the counts
     out.nodes.resize(2 * size_t(root.leaves) - 1);
     out.prim_ids.resize(n);
     Emitter(tree, choices, ctx, out).emit(tree.root, 0, 1, 0, 0);

@@ -39,15 +39,73 @@ struct FlattenRule {
     }
 };
 
-/// Choices of a tree's inner nodes, indexed by id - leaf_count.
-using SubtreeChoices = Array<SubtreeChoice>;
+/// The part of a choice that the layout reads.
+struct SubtreeCounts {
+    uint32_t prims;
+    uint32_t leaves;
+};
+
+/// The builders' view of the choices of a tree's inner nodes (SubtreeChoices
+/// below), indexed by id - leaf_count: two pointers, passed by value.
+class ChoiceTable {
+public:
+    ChoiceTable(double *cost, SubtreeCounts *counts) : cost_(cost), counts_(counts) {}
+    SubtreeChoice get(size_t k) const { return {cost_[k], counts_[k].prims, counts_[k].leaves}; }
+    void set(size_t k, const SubtreeChoice &c) const {
+        cost_[k] = c.cost;
+        counts_[k] = SubtreeCounts{c.prims, c.leaves};
+    }
+    uint32_t prims(size_t k) const { return counts_[k].prims; }
+
+private:
+    double *cost_;
+    SubtreeCounts *counts_;
+};
+
+/// Choices of a tree's inner nodes, indexed by id - leaf_count, as a cost
+/// array and a counts array: the costs serve only while choices are made,
+/// so emit_bvh() releases them before it allocates the finished tree (8
+/// bytes per primitive off the build's peak, docs/PERFORMANCE.md row 123).
+class SubtreeChoices {
+public:
+    void resize(size_t n) {
+        cost_.resize(n);
+        counts_.resize(n);
+    }
+    size_t size() const { return counts_.size(); }
+    SubtreeChoice get(size_t k) const { return {cost_[k], counts_[k].prims, counts_[k].leaves}; }
+    void set(size_t k, const SubtreeChoice &c) {
+        cost_[k] = c.cost;
+        counts_[k] = SubtreeCounts{c.prims, c.leaves};
+    }
+    double cost(size_t k) const { return cost_[k]; }
+    uint32_t prims(size_t k) const { return counts_[k].prims; }
+    uint32_t leaves(size_t k) const { return counts_[k].leaves; }
+    void set_prims(size_t k, uint32_t prims) { counts_[k].prims = prims; }
+    ChoiceTable table() { return ChoiceTable(cost_.data(), counts_.data()); }
+    /// Frees the costs; get() and set() are then out of bounds.
+    void release_costs() { Array<double>().swap(cost_); }
+    void swap(SubtreeChoices &other) {
+        cost_.swap(other.cost_);
+        counts_.swap(other.counts_);
+    }
+    Array<double> &costs() { return cost_; }
+    Array<SubtreeCounts> &counts() { return counts_; }
+    const Array<double> &costs() const { return cost_; }
+    const Array<SubtreeCounts> &counts() const { return counts_; }
+
+private:
+    Array<double> cost_;
+    Array<SubtreeCounts> counts_;
+};
 
 /// Bottom-up pass for builders that did not decide while building.
 void choose_subtrees(const BinaryTree &tree, const FlattenRule &rule, BuildContext &ctx, SubtreeChoices &choices);
 
 /// Top-down pass: depth-first layout with siblings adjacent. Returns the
 /// tree's SAH cost normalised by the root's area (0 when that area is 0).
-double emit_bvh(const BinaryTree &tree, const FlattenRule &rule, const SubtreeChoices &choices, BuildContext &ctx,
+/// Releases the choices' costs first (SubtreeChoices::release_costs()).
+double emit_bvh(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, BuildContext &ctx,
                 Bvh &out);
 
 } // namespace aacbvh

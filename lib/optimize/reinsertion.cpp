@@ -27,7 +27,7 @@ constexpr uint32_t kNone = UINT32_MAX;
 } // namespace
 
 uint64_t Reinsertion::round() {
-    if (n_ < 3 || choices_[t_.root - n_].leaves < 3) return 0;
+    if (n_ < 3 || choices_.leaves(t_.root - n_) < 3) return 0;
     const size_t slots = 2 * size_t(n_);
     parent_.resize(slots);
     order_.resize(slots);

@@ -48,7 +48,7 @@ private:
         uint32_t node;   ///< the node that moves
         uint32_t target; ///< it becomes this node's sibling; UINT32_MAX: no move
     };
-    bool atomic(uint32_t id) const { return t_.is_leaf(id) || choices_[id - n_].leaves == 1; }
+    bool atomic(uint32_t id) const { return t_.is_leaf(id) || choices_.leaves(id - n_) == 1; }
     uint32_t sibling(uint32_t id) const;
     size_t preorder();
     Move search(uint32_t node) const;

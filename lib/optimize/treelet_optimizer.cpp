@@ -46,13 +46,13 @@ private:
     void refresh_node(uint32_t id) {
         const uint32_t l = t_.left(id), r = t_.right(id);
         t_.boxes[id] = unite(t_.boxes[l], t_.boxes[r]);
-        choices_[id - n_] = rule_.inner(t_.boxes[id], choice(l), choice(r));
+        choices_.set(id - n_, rule_.inner(t_.boxes[id], choice(l), choice(r)));
     }
 
     void refresh_subtree(uint32_t root, unsigned depth) {
         // The primitive counts may be stale here: they only pick where to
         // fork, which does not change the result.
-        if (depth < kParallelDepth && choices_[root - n_].prims >= kParallelGrain) {
+        if (depth < kParallelDepth && choices_.prims(root - n_) >= kParallelGrain) {
             const uint32_t l = t_.left(root), r = t_.right(root);
             ctx_.scheduler().fork_join(
                 [&] {
@@ -86,10 +86,12 @@ private:
 
     static constexpr uint32_t kParallelGrain = 1u << 13; ///< primitives below a node worth a task
 
-    SubtreeChoice choice(uint32_t id) const { return t_.is_leaf(id) ? rule_.leaf(t_.boxes[id]) : choices_[id - n_]; }
+    SubtreeChoice choice(uint32_t id) const {
+        return t_.is_leaf(id) ? rule_.leaf(t_.boxes[id]) : choices_.get(id - n_);
+    }
 
     void pass_subtree(uint32_t root, unsigned depth) {
-        if (depth < kParallelDepth && choices_[root - n_].prims >= kParallelGrain) {
+        if (depth < kParallelDepth && choices_.prims(root - n_) >= kParallelGrain) {
             const uint32_t l = t_.left(root), r = t_.right(root);
             ctx_.scheduler().fork_join(
                 [&] {
@@ -131,7 +133,7 @@ private:
     void restructure(uint32_t root) {
         // The children were visited first and may have changed: the root's
         // choice is made again from theirs, before anything else reads it.
-        choices_[root - n_] = rule_.inner(t_.boxes[root], choice(t_.left(root)), choice(t_.right(root)));
+        choices_.set(root - n_, rule_.inner(t_.boxes[root], choice(t_.left(root)), choice(t_.right(root))));
         uint32_t leaf[kTreeletLeaves];
         double leaf_area[kTreeletLeaves];
         uint32_t inner[kTreeletLeaves - 1];
@@ -191,7 +193,7 @@ private:
             cost[s] = best[s].cost;
             side[s] = uint8_t(split_side);
         }
-        const SubtreeChoice old = choices_[root - n_];
+        const SubtreeChoice old = choices_.get(root - n_);
         if (!(best[full].cost < old.cost * (1.0 - kMinGain))) return;
 
         // Install: the treelet's inner nodes are reused, the root first;
@@ -221,7 +223,7 @@ private:
         }
         for (int k = no; k-- > 0;) {
             t_.boxes[order[k].id] = box[order[k].set];
-            choices_[order[k].id - n_] = best[order[k].set];
+            choices_.set(order[k].id - n_, best[order[k].set]);
         }
         changed_.fetch_add(1, std::memory_order_relaxed);
     }
@@ -264,15 +266,16 @@ OptimizeReport optimize_tree(BinaryTree &tree, const FlattenRule &rule, SubtreeC
         // Reinsertion first (far moves), then treelets (the best local
         // shape, leaves included). A round whose moves together raise the
         // cost (each was weighed alone) is undone.
-        const double before = choices[tree.root - n].cost;
+        const double before = choices.cost(tree.root - n);
         copy_array(tree.children, saved_children, sched);
         copy_array(tree.boxes, saved_boxes, sched);
-        copy_array(choices, saved_choices, sched);
+        copy_array(choices.costs(), saved_choices.costs(), sched);
+        copy_array(choices.counts(), saved_choices.counts(), sched);
         const uint32_t saved_root = tree.root;
         uint64_t changed = reinsertion.round();
         if (changed) {
             pass.refresh();
-            if (!(choices[tree.root - n].cost < before)) {
+            if (!(choices.cost(tree.root - n) < before)) {
                 tree.children.swap(saved_children);
                 tree.boxes.swap(saved_boxes);
                 choices.swap(saved_choices);

@@ -41,7 +41,7 @@ class AacRecursion {
 public:
     AacRecursion(const AacConfig &config, const FlattenRule &rule, BuildContext &ctx, BinaryTree &tree,
                  SubtreeChoices &choices, const uint64_t *codes, float scale)
-        : config_(config), rule_(rule), ctx_(ctx), tree_(tree), choices_(choices.data()), codes_(codes), scale_(scale),
+        : config_(config), rule_(rule), ctx_(ctx), tree_(tree), choices_(choices.table()), codes_(codes), scale_(scale),
           n_(tree.leaf_count()), clusters_(n_), free_ids_(n_), scratch_(MemoryMeter::current()) {
         // f(n) of the many small nodes comes from a table instead of pow().
         small_targets_.resize(std::min<uint32_t>(n_, kTargetTableSize) + 1);
@@ -87,7 +87,7 @@ private:
                                 choices_, scratch_, ctx_);
     }
 
-    SubtreeChoice choice(uint32_t id) const { return id < n_ ? rule_.leaf(tree_.boxes[id]) : choices_[id - n_]; }
+    SubtreeChoice choice(uint32_t id) const { return id < n_ ? rule_.leaf(tree_.boxes[id]) : choices_.get(id - n_); }
 
     /// The root range: its top `levels` levels split top-down by SAH over the
     /// clusters' centroids (build/aac/top_split.h), each side below them merged
@@ -107,7 +107,7 @@ private:
         merged.extend(tree_.boxes[r]);
         tree_.boxes[node] = merged;
         tree_.set_children(node, l, r);
-        choices_[node - n_] = rule_.inner(merged, choice(l), choice(r));
+        choices_.set(node - n_, rule_.inner(merged, choice(l), choice(r)));
         return node;
     }
 
@@ -125,7 +125,7 @@ private:
     const FlattenRule &rule_;
     BuildContext &ctx_;
     BinaryTree &tree_;
-    SubtreeChoice *choices_;
+    ChoiceTable choices_;
     uint32_t target(uint32_t n) const {
         return n < small_targets_.size() ? small_targets_[n] : aac_cluster_target(config_, n);
     }

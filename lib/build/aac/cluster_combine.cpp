@@ -157,9 +157,9 @@ __attribute__((target("avx2"))) uint32_t update_nearest_avx2(const float *da, fl
 /// row is recomputed whenever a nearest neighbour must be found again.
 template <bool kMatrix>
 uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target, float scale,
-                 const FlattenRule &rule, SubtreeChoice *choices, CombineScratch &s, BuildContext &ctx) {
+                 const FlattenRule &rule, ChoiceTable choices, CombineScratch &s, BuildContext &ctx) {
     const uint32_t n = tree.leaf_count();
-    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
+    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices.get(id - n); };
     const uint32_t stride = padded(count + 1); // + 1: a spare row for the non-matrix mode
     Columns boxes(s.columns.data(), stride);
     float *nd = s.nearest_distance.data();
@@ -219,7 +219,7 @@ uint32_t combine(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t c
         const Box merged = unite(tree.boxes[ids[a]], tree.boxes[ids[b]]);
         tree.boxes[node] = merged;
         tree.set_children(node, ids[a], ids[b]);
-        choices[node - n] = rule.inner(merged, choice(ids[a]), choice(ids[b]));
+        choices.set(node - n, rule.inner(merged, choice(ids[a]), choice(ids[b])));
 
         // Slot b is freed by moving the last live cluster into it.
         const uint32_t last = live - 1;
@@ -300,7 +300,7 @@ inline uint32_t argmin_small(const float *row, uint32_t count, float &best) {
 /// distance per pair and no nearest-neighbour bookkeeping; the slots then
 /// move as in the loop.
 uint32_t combine_once(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, float scale,
-                      const FlattenRule &rule, SubtreeChoice *choices) {
+                      const FlattenRule &rule, ChoiceTable choices) {
     const uint32_t n = tree.leaf_count();
     Box box[kSmallCombine];
     for (uint32_t i = 0; i < count; ++i) box[i] = tree.boxes[ids[i]];
@@ -314,12 +314,12 @@ uint32_t combine_once(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint3
             a = less ? i : a;
             b = less ? j : b;
         }
-    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
+    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices.get(id - n); };
     const uint32_t node = free_ids[0];
     const Box merged = unite(box[a], box[b]);
     tree.boxes[node] = merged;
     tree.set_children(node, ids[a], ids[b]);
-    choices[node - n] = rule.inner(merged, choice(ids[a]), choice(ids[b]));
+    choices.set(node - n, rule.inner(merged, choice(ids[a]), choice(ids[b])));
     const uint32_t last = count - 1;
     if (b != last) ids[b] = ids[last];
     ids[a] = node;
@@ -338,12 +338,12 @@ uint32_t combine_once(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint3
 /// runs this same loop for these counts, so builds stay identical across
 /// kernels and thread counts.
 uint32_t combine_few(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                     float scale, const FlattenRule &rule, SubtreeChoice *choices) {
+                     float scale, const FlattenRule &rule, ChoiceTable choices) {
     const uint32_t n = tree.leaf_count();
     Box box[kFewCombine];
     float d[kFewCombine][kFewCombine]; // d[i][j] for i < j
     // A leaf's choice from the box held here (the same values as the tree's).
-    auto choice = [&](uint32_t slot) { return ids[slot] < n ? rule.leaf(box[slot]) : choices[ids[slot] - n]; };
+    auto choice = [&](uint32_t slot) { return ids[slot] < n ? rule.leaf(box[slot]) : choices.get(ids[slot] - n); };
     for (uint32_t i = 0; i < count; ++i) box[i] = tree.boxes[ids[i]];
     for (uint32_t i = 0; i + 1 < count; ++i)
         for (uint32_t j = i + 1; j < count; ++j) d[i][j] = scaled_union_half_area(box[i], box[j], scale);
@@ -363,7 +363,7 @@ uint32_t combine_few(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32
         const Box merged = unite(box[a], box[b]);
         tree.boxes[node] = merged;
         tree.set_children(node, ids[a], ids[b]);
-        choices[node - n] = rule.inner(merged, choice(a), choice(b));
+        choices.set(node - n, rule.inner(merged, choice(a), choice(b)));
 
         const uint32_t last = live - 1;
         if (b != last) { // the last live cluster moves into slot b, its distances with it
@@ -391,14 +391,14 @@ uint32_t combine_few(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32
 }
 
 uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                       float scale, const FlattenRule &rule, SubtreeChoice *choices) {
+                       float scale, const FlattenRule &rule, ChoiceTable choices) {
     const uint32_t n = tree.leaf_count();
     Box box[kSmallCombine];
     float d[kSmallCombine][kSmallCombine];
     float nd[kSmallCombine];
     uint32_t nn[kSmallCombine];
     auto dist = [scale](const Box &a, const Box &b) { return scaled_union_half_area(a, b, scale); };
-    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n]; };
+    auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices.get(id - n); };
 
     for (uint32_t i = 0; i < count; ++i) box[i] = tree.boxes[ids[i]];
     for (uint32_t i = 0; i < count; ++i) {
@@ -418,7 +418,7 @@ uint32_t combine_small(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint
         const Box merged = unite(box[a], box[b]);
         tree.boxes[node] = merged;
         tree.set_children(node, ids[a], ids[b]);
-        choices[node - n] = rule.inner(merged, choice(ids[a]), choice(ids[b]));
+        choices.set(node - n, rule.inner(merged, choice(ids[a]), choice(ids[b])));
 
         const uint32_t last = live - 1;
         if (b != last) {
@@ -493,7 +493,7 @@ CombineScratch &CombineScratchPool::local() {
 static_assert(kFewCombine <= 8, "combine_few_avx2 holds the clusters in eight lanes");
 
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                          float scale, const FlattenRule &rule, SubtreeChoice *choices, CombineScratchPool &scratch_pool,
+                          float scale, const FlattenRule &rule, ChoiceTable choices, CombineScratchPool &scratch_pool,
                           BuildContext &ctx, CombineVariant variant) {
     if (target < 1) target = 1;
     if (count <= target) return count;

@@ -82,7 +82,7 @@ constexpr uint32_t kFewCombine = 8;
 constexpr uint32_t kMatrixCombine = 2048;
 
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                          float scale, const FlattenRule &rule, SubtreeChoice *choices, CombineScratchPool &scratch_pool,
+                          float scale, const FlattenRule &rule, ChoiceTable choices, CombineScratchPool &scratch_pool,
                           BuildContext &ctx, CombineVariant variant = CombineVariant::Automatic);
 
 } // namespace aacbvh

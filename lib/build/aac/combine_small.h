@@ -19,19 +19,19 @@ bool combine_small_avx2_compiled();
 
 /// combine_clusters() for count <= kWideSmallCombine on a CPU with AVX2.
 uint32_t combine_small_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                            float scale, const FlattenRule &rule, SubtreeChoice *choices);
+                            float scale, const FlattenRule &rule, ChoiceTable choices);
 
 /// The pair scan of combine_few() (at most 8 clusters, cluster_combine.cpp)
 /// on a CPU with AVX2: the boxes as columns of one register, the distances as
 /// rows of one register each; the same merges.
 uint32_t combine_few_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                          float scale, const FlattenRule &rule, SubtreeChoice *choices);
+                          float scale, const FlattenRule &rule, ChoiceTable choices);
 
 /// Whether this build of the library has the AVX-512 loop (x86-64, GCC or Clang).
 bool combine_small_avx512_compiled();
 
 /// combine_clusters() for count <= kWideSmallCombine on a CPU with AVX-512F.
 uint32_t combine_small_avx512(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                              float scale, const FlattenRule &rule, SubtreeChoice *choices);
+                              float scale, const FlattenRule &rule, ChoiceTable choices);
 
 } // namespace aacbvh

@@ -179,7 +179,7 @@ template <int kVectors> struct SmallCombine {
 
 template <int kVectors>
 uint32_t run(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target, float scale,
-             const FlattenRule &rule, SubtreeChoice *choices) {
+             const FlattenRule &rule, ChoiceTable choices) {
     SmallCombine<kVectors> s;
     s.scale = _mm256_set1_ps(scale);
     return greedy_loop(s, tree, ids, free_ids, count, target, rule, choices);
@@ -224,7 +224,7 @@ inline void set_few_row(__m256 (&rows)[7], const __m256 (&c)[6], uint32_t slot, 
 } // namespace
 
 uint32_t combine_few_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                          float scale, const FlattenRule &rule, SubtreeChoice *choices) {
+                          float scale, const FlattenRule &rule, ChoiceTable choices) {
     const uint32_t n = tree.leaf_count();
     const __m256 vscale = _mm256_set1_ps(scale);
     const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -268,8 +268,8 @@ uint32_t combine_few_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
         const Box merged = unite(box[a], box[b]);
         tree.boxes[node] = merged;
         tree.set_children(node, ids[a], ids[b]);
-        choices[node - n] = rule.inner(merged, cluster_choice(tree, rule, choices, ids[a]),
-                                       cluster_choice(tree, rule, choices, ids[b]));
+        choices.set(node - n, rule.inner(merged, cluster_choice(tree, rule, choices, ids[a]),
+                                       cluster_choice(tree, rule, choices, ids[b])));
 
         const uint32_t last = live - 1;
         live = last;
@@ -293,7 +293,7 @@ uint32_t combine_few_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
 bool combine_small_avx2_compiled() { return true; }
 
 uint32_t combine_small_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                            float scale, const FlattenRule &rule, SubtreeChoice *choices) {
+                            float scale, const FlattenRule &rule, ChoiceTable choices) {
     if (count <= 8) return run<1>(tree, ids, free_ids, count, target, scale, rule, choices);
     if (count <= 16) return run<2>(tree, ids, free_ids, count, target, scale, rule, choices);
     if (count <= 32) return run<4>(tree, ids, free_ids, count, target, scale, rule, choices);
@@ -313,11 +313,11 @@ uint32_t combine_small_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids,
 namespace aacbvh {
 bool combine_small_avx2_compiled() { return false; }
 uint32_t combine_small_avx2(BinaryTree &, uint32_t *, uint32_t *, uint32_t count, uint32_t, float,
-                            const FlattenRule &, SubtreeChoice *) {
+                            const FlattenRule &, ChoiceTable) {
     return count;
 }
 uint32_t combine_few_avx2(BinaryTree &, uint32_t *, uint32_t *, uint32_t count, uint32_t, float, const FlattenRule &,
-                          SubtreeChoice *) {
+                          ChoiceTable) {
     return count;
 }
 } // namespace aacbvh

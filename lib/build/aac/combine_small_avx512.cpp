@@ -138,7 +138,7 @@ template <int kVectors> struct SmallCombine512 {
 
 template <int kVectors>
 uint32_t run(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target, float scale,
-             const FlattenRule &rule, SubtreeChoice *choices) {
+             const FlattenRule &rule, ChoiceTable choices) {
     SmallCombine512<kVectors> s;
     s.scale = _mm512_set1_ps(scale);
     return greedy_loop(s, tree, ids, free_ids, count, target, rule, choices);
@@ -149,7 +149,7 @@ uint32_t run(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count
 bool combine_small_avx512_compiled() { return true; }
 
 uint32_t combine_small_avx512(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                              float scale, const FlattenRule &rule, SubtreeChoice *choices) {
+                              float scale, const FlattenRule &rule, ChoiceTable choices) {
     if (count <= 16) return run<1>(tree, ids, free_ids, count, target, scale, rule, choices);
     if (count <= 32) return run<2>(tree, ids, free_ids, count, target, scale, rule, choices);
     if (count <= 48) return run<3>(tree, ids, free_ids, count, target, scale, rule, choices);
@@ -170,7 +170,7 @@ uint32_t combine_small_avx512(BinaryTree &tree, uint32_t *ids, uint32_t *free_id
 namespace aacbvh {
 bool combine_small_avx512_compiled() { return false; }
 uint32_t combine_small_avx512(BinaryTree &, uint32_t *, uint32_t *, uint32_t count, uint32_t, float,
-                              const FlattenRule &, SubtreeChoice *) {
+                              const FlattenRule &, ChoiceTable) {
     return count;
 }
 } // namespace aacbvh

@@ -14,15 +14,15 @@
 // No lambdas here: a target region does not reach into them.
 
 /// The inner-node choice of cluster `id` (a leaf's, or its merge's).
-inline SubtreeChoice cluster_choice(const BinaryTree &tree, const FlattenRule &rule, const SubtreeChoice *choices,
+inline SubtreeChoice cluster_choice(const BinaryTree &tree, const FlattenRule &rule, ChoiceTable choices,
                                     uint32_t id) {
     const uint32_t n = tree.leaf_count();
-    return id < n ? rule.leaf(tree.boxes[id]) : choices[id - n];
+    return id < n ? rule.leaf(tree.boxes[id]) : choices.get(id - n);
 }
 
 template <class S>
 uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                     const FlattenRule &rule, SubtreeChoice *choices) {
+                     const FlattenRule &rule, ChoiceTable choices) {
     const uint32_t n = tree.leaf_count();
     for (uint32_t i = 0; i < count; ++i) s.set(i, tree.boxes[ids[i]]);
     for (uint32_t i = count; i < S::kLanes; ++i) {
@@ -42,8 +42,8 @@ uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, 
         const Box merged = unite(s.box[a], s.box[b]);
         tree.boxes[node] = merged;
         tree.set_children(node, ids[a], ids[b]);
-        choices[node - n] = rule.inner(merged, cluster_choice(tree, rule, choices, ids[a]),
-                                       cluster_choice(tree, rule, choices, ids[b]));
+        choices.set(node - n, rule.inner(merged, cluster_choice(tree, rule, choices, ids[a]),
+                                       cluster_choice(tree, rule, choices, ids[b])));
 
         const uint32_t last = live - 1;
         if (b != last) {

@@ -16,10 +16,10 @@ void sort_on(const BinaryTree &tree, uint32_t *ids, uint32_t count, int axis) {
 
 } // namespace
 
-uint32_t sah_partition(const BinaryTree &tree, const SubtreeChoice *choices, uint32_t *ids, uint32_t count) {
+uint32_t sah_partition(const BinaryTree &tree, ChoiceTable choices, uint32_t *ids, uint32_t count) {
     if (count < 2) return count;
     const uint32_t n = tree.leaf_count();
-    auto prims = [&](uint32_t id) { return id < n ? 1.0 : double(choices[id - n].prims); };
+    auto prims = [&](uint32_t id) { return id < n ? 1.0 : double(choices.prims(id - n)); };
     std::vector<double> right_cost(count);
     double best_cost = 0.0;
     int best_axis = -1;

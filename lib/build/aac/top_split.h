@@ -22,6 +22,6 @@ namespace aacbvh {
 /// counting primitives, over the sorted orders of the three axes. Ties go to
 /// the lower axis and split, and centroid ties to the lower id, so the result
 /// is deterministic.
-uint32_t sah_partition(const BinaryTree &tree, const SubtreeChoice *choices, uint32_t *ids, uint32_t count);
+uint32_t sah_partition(const BinaryTree &tree, ChoiceTable choices, uint32_t *ids, uint32_t count);
 
 } // namespace aacbvh
