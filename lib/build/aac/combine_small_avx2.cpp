@@ -269,7 +269,7 @@ uint32_t combine_few_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
         tree.boxes[node] = merged;
         tree.set_children(node, ids[a], ids[b]);
         choices.set(node - n, rule.inner(merged, cluster_choice(tree, rule, choices, ids[a]),
-                                       cluster_choice(tree, rule, choices, ids[b])));
+                                         cluster_choice(tree, rule, choices, ids[b])));
 
         const uint32_t last = live - 1;
         live = last;

@@ -43,7 +43,7 @@ uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, 
         tree.boxes[node] = merged;
         tree.set_children(node, ids[a], ids[b]);
         choices.set(node - n, rule.inner(merged, cluster_choice(tree, rule, choices, ids[a]),
-                                       cluster_choice(tree, rule, choices, ids[b])));
+                                         cluster_choice(tree, rule, choices, ids[b])));
 
         const uint32_t last = live - 1;
         if (b != last) {
