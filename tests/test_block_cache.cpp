@@ -162,9 +162,10 @@ void test_build_generations(void **) {
     void *taken = cache.take(4 * kMiB);  // reused by this build
     assert_non_null(taken);
     cache.keep(block(6 * kMiB), 6 * kMiB); // freed by this build
-    char *part = static_cast<char *>(cache.take_part(kMiB)); // this build's blocks may be split
+    assert_null(cache.take_part(kMiB)); // a sixth of the block: too small to cut from it
+    char *part = static_cast<char *>(cache.take_part(2 * kMiB)); // this build's blocks may be split
     assert_non_null(part);
-    cache.keep(part, kMiB);
+    cache.keep(part, 2 * kMiB);
     cache.end_build(); // frees the unused 2 MiB block
     assert_int_equal(cache.bytes(), 6 * kMiB);
     cache.keep(taken, 4 * kMiB);

@@ -38,7 +38,7 @@ void *BlockCache::take_part(size_t bytes) noexcept {
     for (size_t i = 0; i < count_; ++i)
         if (!blocks_[i].old && blocks_[i].bytes > bytes && (best == count_ || blocks_[i].bytes < blocks_[best].bytes))
             best = i;
-    if (best == count_) return nullptr;
+    if (best == count_ || blocks_[best].bytes / kMaxSplitRatio > bytes) return nullptr;
     Block &rest = blocks_[best];
     void *p = rest.pointer;
     rest.pointer = static_cast<char *>(p) + bytes;

@@ -36,8 +36,12 @@ public:
     /// begin_build() that holds more; the rest stays kept as a block of its
     /// own, so one freed array can serve several smaller ones. Blocks kept
     /// from an earlier build stay whole for take(): the next build asks for
-    /// the same sizes. nullptr when no block is big enough.
+    /// the same sizes. nullptr when no block is big enough, and when that
+    /// block is more than kMaxSplitRatio times `bytes`: a small array cut
+    /// from a big block leaves it too short for the big array that comes
+    /// after (docs/PERFORMANCE.md, change 127).
     void *take_part(size_t bytes) noexcept;
+    static constexpr size_t kMaxSplitRatio = 4;
     /// Keeps a block of `bytes`; frees it when the cache is full.
     void keep(void *block, size_t bytes) noexcept;
     /// Frees every kept block.
