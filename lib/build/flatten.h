@@ -72,7 +72,6 @@ public:
         cost_.resize(n);
         counts_.resize(n);
     }
-    size_t size() const { return counts_.size(); }
     SubtreeChoice get(size_t k) const { return {cost_[k], counts_[k].prims, counts_[k].leaves}; }
     void set(size_t k, const SubtreeChoice &c) {
         cost_[k] = c.cost;
@@ -89,10 +88,9 @@ public:
         cost_.swap(other.cost_);
         counts_.swap(other.counts_);
     }
+    /// The two arrays, for copying a tree's choices whole (the optimiser's undo).
     Array<double> &costs() { return cost_; }
     Array<SubtreeCounts> &counts() { return counts_; }
-    const Array<double> &costs() const { return cost_; }
-    const Array<SubtreeCounts> &counts() const { return counts_; }
 
 private:
     Array<double> cost_;
