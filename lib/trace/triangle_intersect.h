@@ -286,6 +286,10 @@ template <class Vertices> [[gnu::noinline, gnu::cold]] bool has_area_of(const Ve
 /// in the same order, e.g. for four triangles at once with SIMD: the same
 /// result, without computing them again. The rare cases (values out of
 /// float range, det overflowing) go to intersect_triangle() itself.
+///
+/// The caller has already dropped the values with certain, mixed signs (a
+/// packet filter's rejection): values in range (finite, normal, so no NaN)
+/// then share one sign, and the two-sided test needs no second look.
 template <class Vertices>
 inline bool intersect_triangle_edges_of(const TriangleRay &r, const Vertices &tri, float eu, float ev, float ew,
                                         float mag, float tmin, float tmax, float &t, float &u, float &v) {
@@ -293,8 +297,6 @@ inline bool intersect_triangle_edges_of(const TriangleRay &r, const Vertices &tr
     const bool in_range = mu >= FLT_MIN && mv >= FLT_MIN && mw >= FLT_MIN &&
                           mu <= FLT_MAX && mv <= FLT_MAX && mw <= FLT_MAX;
     if (!in_range) return intersect_triangle_of(r, tri, tmin, tmax, t, u, v);
-    if ((eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f))
-        return false;
     const float det = eu + ev + ew;
     if (mu + mv + mw <= 0x1p-18f * mag && !has_area_of(tri)) return false;
     if (!std::isfinite(det)) return intersect_triangle_of(r, tri, tmin, tmax, t, u, v);
