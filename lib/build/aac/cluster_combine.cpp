@@ -490,7 +490,7 @@ CombineScratch &CombineScratchPool::local() {
     return *mine;
 }
 
-static_assert(kFewCombine <= 8, "combine_few_avx2 holds the clusters in eight lanes");
+static_assert(kFewCombine <= 8, "combine_few_avx2 holds the clusters in eight lanes and their pairs in four registers");
 
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
                           float scale, const FlattenRule &rule, ChoiceTable choices, CombineScratchPool &scratch_pool,
@@ -513,7 +513,11 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
                   : count <= matrix_limit ? CombineVariant::Matrix
                                           : CombineVariant::Rows;
     if (variant == CombineVariant::Small && count <= small_limit) {
-        if (count == target + 1 && count <= kSmallCombine)
+        // One merge: a scalar scan of every pair, except where the AVX2 pair
+        // scan holds the clusters, from four on (it computes all pairs at
+        // once; docs/PERFORMANCE.md row 130).
+        const bool pair_scan = avx2 && count >= 4 && count <= kFewCombine;
+        if (count == target + 1 && count <= kSmallCombine && !pair_scan)
             return combine_once(tree, ids, free_ids, count, scale, rule, choices);
         if (count <= kFewCombine)
             return avx2 ? combine_few_avx2(tree, ids, free_ids, count, target, scale, rule, choices)

@@ -22,8 +22,9 @@ uint32_t combine_small_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids,
                             float scale, const FlattenRule &rule, ChoiceTable choices);
 
 /// The pair scan of combine_few() (at most 8 clusters, cluster_combine.cpp)
-/// on a CPU with AVX2: the boxes as columns of one register, the distances as
-/// rows of one register each; the same merges.
+/// on a CPU with AVX2: the boxes as columns of one register, every pair of
+/// clusters a lane of one to four registers, all live pairs' distances
+/// computed again at each merge; the same merges.
 uint32_t combine_few_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
                           float scale, const FlattenRule &rule, ChoiceTable choices);
 

@@ -185,20 +185,6 @@ uint32_t run(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count
     return greedy_loop(s, tree, ids, free_ids, count, target, rule, choices);
 }
 
-/// d(i, j) for the eight lanes j of the few-cluster columns c (lo x, y, z,
-/// hi x, y, z): the operations of scaled_union_half_area() in the same order,
-/// as in nearest_in(). `at_i` holds i in every lane.
-inline __m256 few_row(const __m256 (&c)[6], __m256i at_i, __m256 scale) {
-    __m256 d[3];
-    for (int k = 0; k < 3; ++k)
-        d[k] = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(c[k + 3], _mm256_permutevar8x32_ps(c[k + 3], at_i)),
-                                           _mm256_min_ps(c[k], _mm256_permutevar8x32_ps(c[k], at_i))),
-                             scale);
-    const __m256 area =
-        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[1]), _mm256_mul_ps(d[1], d[2])), _mm256_mul_ps(d[2], d[0]));
-    return _mm256_min_ps(area, _mm256_set1_ps(FLT_MAX)); // NaN and overflow: FLT_MAX, as the scalar clamp
-}
-
 /// Lane `at` of the columns set to box b (whole-register blends: no store of
 /// one lane is ever read back by a wider load, which would stall).
 inline void set_few_lane(__m256 (&c)[6], __m256 at, const Box &b) {
@@ -208,61 +194,91 @@ inline void set_few_lane(__m256 (&c)[6], __m256 at, const Box &b) {
     }
 }
 
-/// The distances of slot `slot` after its box changed: its own row (d(slot,
-/// j) in lane j), then lane `slot` of the rows j < slot, since the pair scan
-/// reads the upper triangle and d(j, slot) = d(slot, j). The changed slots
-/// are a and b of a merge, both below its last live slot, so slot < 7.
-inline void set_few_row(__m256 (&rows)[7], const __m256 (&c)[6], uint32_t slot, __m256 scale) {
-    const __m256i at_i = _mm256_set1_epi32(int(slot));
-    const __m256 r = few_row(c, at_i, scale);
-    rows[slot] = r;
-    const __m256 at = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), at_i));
-    for (uint32_t j = 0; j < slot; ++j)
-        rows[j] = _mm256_blendv_ps(rows[j], _mm256_permutevar8x32_ps(r, _mm256_set1_epi32(int(j))), at);
+/// The pairs (a, b), a < b, of up to kPairSlots[R - 1] clusters in slot
+/// order (a first, then b), eight to a register, in R registers: lane p of
+/// register v holds pair 8 v + p; lanes past the pairs hold (0, 0).
+constexpr uint32_t kPairSlots[4] = {4, 6, 7, 8};
+constexpr int32_t kPairCount[4] = {6, 15, 21, 28};
+alignas(32) constexpr int32_t kPairA[4][32] = {{0, 0, 0, 1, 1, 2},
+                                                {0, 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 3, 3, 4},
+                                                {0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 4, 4, 5},
+                                                {0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 2, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 5, 5, 6}};
+alignas(32) constexpr int32_t kPairB[4][32] = {{1, 2, 3, 2, 3, 3},
+                                                {1, 2, 3, 4, 5, 2, 3, 4, 5, 3, 4, 5, 4, 5, 5},
+                                                {1, 2, 3, 4, 5, 6, 2, 3, 4, 5, 6, 3, 4, 5, 6, 4, 5, 6, 5, 6, 6},
+                                                {1, 2, 3, 4, 5, 6, 7, 2, 3, 4, 5, 6, 7, 3, 4, 5, 6, 7, 4, 5, 6, 7, 5, 6, 7, 6, 7, 7}};
+
+/// Coordinate k of the first kSlots boxes' lo (or hi) corners, zeros past
+/// them, made in registers.
+template <uint32_t kSlots> inline float corner_entry(const Box *box, uint32_t i, int k, bool hi) {
+    return i < kSlots ? (hi ? box[i].hi[k] : box[i].lo[k]) : 0.0f;
+}
+template <uint32_t kSlots> inline __m256 corner_column(const Box *box, int k, bool hi) {
+    return _mm256_setr_ps(corner_entry<kSlots>(box, 0, k, hi), corner_entry<kSlots>(box, 1, k, hi),
+                          corner_entry<kSlots>(box, 2, k, hi), corner_entry<kSlots>(box, 3, k, hi),
+                          corner_entry<kSlots>(box, 4, k, hi), corner_entry<kSlots>(box, 5, k, hi),
+                          corner_entry<kSlots>(box, 6, k, hi), corner_entry<kSlots>(box, 7, k, hi));
 }
 
-} // namespace
-
-uint32_t combine_few_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
-                          float scale, const FlattenRule &rule, ChoiceTable choices) {
+/// The combines of at most kFewCombine = 8 clusters (most of AAC-Fast's:
+/// four leaves to two, five or six clusters to three or four) with AVX2,
+/// kPairSlots[R - 1] clusters at most: every pair (a, b) of slots has a lane
+/// of R registers, so each merge's pair scan computes all live pairs'
+/// distances at once (the operations of scaled_union_half_area() in the same
+/// order, as in nearest_in()), with no rows to set up or keep, and merges the
+/// first pair in slot order at the smallest distance: the union into slot a,
+/// the last live cluster into slot b (combine_few()'s rule, so the same
+/// merges).
+template <int R>
+uint32_t combine_pairs(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
+                       float scale, const FlattenRule &rule, ChoiceTable choices) {
+    constexpr uint32_t kSlots = kPairSlots[R - 1];
     const uint32_t n = tree.leaf_count();
     const __m256 vscale = _mm256_set1_ps(scale);
-    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     const __m256 inf = _mm256_set1_ps(INFINITY);
-    Box box[8];
-    for (uint32_t i = 0; i < 8; ++i) box[i] = tree.boxes[ids[i < count ? i : 0]]; // lanes past count: harmless copies
-    __m256 c[6]; // the columns, built in registers (no store of one lane read back by a wider load)
-    for (int k = 0; k < 3; ++k) {
-        c[k] = _mm256_setr_ps(box[0].lo[k], box[1].lo[k], box[2].lo[k], box[3].lo[k], box[4].lo[k], box[5].lo[k],
-                              box[6].lo[k], box[7].lo[k]);
-        c[k + 3] = _mm256_setr_ps(box[0].hi[k], box[1].hi[k], box[2].hi[k], box[3].hi[k], box[4].hi[k],
-                                  box[5].hi[k], box[6].hi[k], box[7].hi[k]);
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    __m256i pa[R], pb[R], real[R];
+    for (int v = 0; v < R; ++v) {
+        pa[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(kPairA[R - 1] + 8 * v));
+        pb[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(kPairB[R - 1] + 8 * v));
+        real[v] = _mm256_cmpgt_epi32(_mm256_set1_epi32(kPairCount[R - 1] - 8 * v), lane);
     }
-    __m256 rows[7]; // rows[i]: d(i, j) in lane j, for j > i (the rest unused)
-    for (uint32_t i = 0; i < 7; ++i) rows[i] = i + 1 < count ? few_row(c, _mm256_set1_epi32(int(i)), vscale) : inf;
+    Box box[kSlots];
+    for (uint32_t i = 0; i < kSlots; ++i) box[i] = tree.boxes[ids[i < count ? i : 0]]; // past count: harmless copies
+    __m256 c[6]; // the columns: lo x, y, z, hi x, y, z
+    for (int k = 0; k < 3; ++k) {
+        c[k] = corner_column<kSlots>(box, k, false);
+        c[k + 3] = corner_column<kSlots>(box, k, true);
+    }
 
     uint32_t live = count, used = 0;
     while (live > target) {
-        // The first pair (a, b), a < b, in slot order at the smallest
-        // distance: the smallest over rows i of lanes i < j < live, then the
-        // lowest bit 8 i + j holding it (rows past live - 2 have no lanes).
-        const __m256i end = _mm256_set1_epi32(int(live));
-        __m256 r[7];
+        __m256 r[R];
         __m256 m = inf;
-        for (int i = 0; i < 7; ++i) {
-            const __m256i in = _mm256_and_si256(_mm256_cmpgt_epi32(lane, _mm256_set1_epi32(i)),
-                                                _mm256_cmpgt_epi32(end, lane));
-            r[i] = _mm256_blendv_ps(inf, rows[i], _mm256_castsi256_ps(in));
-            m = _mm256_min_ps(m, r[i]);
+        for (int v = 0; v < R; ++v) {
+            __m256 d[3];
+            for (int k = 0; k < 3; ++k)
+                d[k] = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_permutevar8x32_ps(c[k + 3], pb[v]),
+                                                                 _mm256_permutevar8x32_ps(c[k + 3], pa[v])),
+                                                   _mm256_min_ps(_mm256_permutevar8x32_ps(c[k], pb[v]),
+                                                                 _mm256_permutevar8x32_ps(c[k], pa[v]))),
+                                     vscale);
+            const __m256 area = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[1]), _mm256_mul_ps(d[1], d[2])),
+                                              _mm256_mul_ps(d[2], d[0]));
+            // NaN and overflow: FLT_MAX, as the scalar clamp. Live pairs:
+            // b < live (then a < live too).
+            const __m256i in = _mm256_and_si256(_mm256_cmpgt_epi32(_mm256_set1_epi32(int(live)), pb[v]), real[v]);
+            r[v] = _mm256_blendv_ps(inf, _mm256_min_ps(area, _mm256_set1_ps(FLT_MAX)), _mm256_castsi256_ps(in));
+            m = _mm256_min_ps(m, r[v]);
         }
         m = _mm256_min_ps(m, _mm256_permute2f128_ps(m, m, 1));
         m = _mm256_min_ps(m, _mm256_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
         m = _mm256_min_ps(m, _mm256_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
-        uint64_t at = 0;
-        for (int i = 0; i < 7; ++i)
-            at |= uint64_t(unsigned(_mm256_movemask_ps(_mm256_cmp_ps(r[i], m, _CMP_EQ_OQ)))) << (8 * i);
-        const uint32_t first = uint32_t(__builtin_ctzll(at)); // a finite entry exists (live >= 2)
-        const uint32_t a = first >> 3, b = first & 7u;
+        uint32_t at = 0;
+        for (int v = 0; v < R; ++v)
+            at |= uint32_t(unsigned(_mm256_movemask_ps(_mm256_cmp_ps(r[v], m, _CMP_EQ_OQ)))) << (8 * v);
+        const uint32_t p = uint32_t(__builtin_ctz(at)); // a finite entry exists (live >= 2)
+        const uint32_t a = uint32_t(kPairA[R - 1][p]), b = uint32_t(kPairB[R - 1][p]);
 
         const uint32_t node = free_ids[used++];
         const Box merged = unite(box[a], box[b]);
@@ -281,13 +297,19 @@ uint32_t combine_few_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
             ids[b] = ids[last];
             set_few_lane(c, _mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, _mm256_set1_epi32(int(b)))), box[b]);
         }
-        if (live > target) { // the distances of the two changed slots, for the next pair scan
-            set_few_row(rows, c, a, vscale);
-            if (b != last) set_few_row(rows, c, b, vscale);
-        }
     }
     for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
     return live;
+}
+
+} // namespace
+
+uint32_t combine_few_avx2(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
+                          float scale, const FlattenRule &rule, ChoiceTable choices) {
+    if (count <= kPairSlots[0]) return combine_pairs<1>(tree, ids, free_ids, count, target, scale, rule, choices);
+    if (count <= kPairSlots[1]) return combine_pairs<2>(tree, ids, free_ids, count, target, scale, rule, choices);
+    if (count <= kPairSlots[2]) return combine_pairs<3>(tree, ids, free_ids, count, target, scale, rule, choices);
+    return combine_pairs<4>(tree, ids, free_ids, count, target, scale, rule, choices);
 }
 
 bool combine_small_avx2_compiled() { return true; }
