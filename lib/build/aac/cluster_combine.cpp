@@ -492,6 +492,10 @@ CombineScratch &CombineScratchPool::local() {
 
 static_assert(kFewCombine <= 8, "combine_few_avx2 holds the clusters in eight lanes and their pairs in four registers");
 
+static uint32_t combine_with_scratch(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count,
+                                     uint32_t target, float scale, const FlattenRule &rule, ChoiceTable choices,
+                                     CombineScratchPool &scratch_pool, BuildContext &ctx, CombineVariant variant);
+
 uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
                           float scale, const FlattenRule &rule, ChoiceTable choices, CombineScratchPool &scratch_pool,
                           BuildContext &ctx, CombineVariant variant) {
@@ -527,6 +531,17 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
         if (avx2 && count > 8) return combine_small_avx2(tree, ids, free_ids, count, target, scale, rule, choices);
         return combine_small(tree, ids, free_ids, count, target, scale, rule, choices);
     }
+    return combine_with_scratch(tree, ids, free_ids, count, target, scale, rule, choices, scratch_pool, ctx, variant);
+}
+
+/// combine_clusters()' loops over scratch memory (the matrix and the rows),
+/// out of line: their frame would otherwise cost every small combine a
+/// longer entry and exit (docs/PERFORMANCE.md row 131).
+[[gnu::noinline]] static uint32_t combine_with_scratch(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids,
+                                                       uint32_t count, uint32_t target, float scale,
+                                                       const FlattenRule &rule, ChoiceTable choices,
+                                                       CombineScratchPool &scratch_pool, BuildContext &ctx,
+                                                       CombineVariant variant) {
     CombineScratch &scratch = scratch_pool.local();
     const uint32_t stride = padded(count + 1);
     const MemoryMeter::Scope metered(scratch.meter); // growth counts in the build's peak

@@ -304,11 +304,10 @@ DistanceKernel default_kernel() {
     return best == DistanceKernel::Avx512 && !avx512_pays() ? DistanceKernel::Avx2 : best;
 }
 
-std::atomic<DistanceKernel> g_kernel{default_kernel()};
 
 } // namespace
 
-DistanceKernel distance_kernel() { return g_kernel.load(std::memory_order_relaxed); }
+std::atomic<DistanceKernel> g_distance_kernel{default_kernel()};
 
 bool kernel_available(DistanceKernel kernel) {
     switch (kernel) {
@@ -325,7 +324,7 @@ bool kernel_available(DistanceKernel kernel) {
 
 bool set_distance_kernel(DistanceKernel kernel) {
     if (!kernel_available(kernel)) return false;
-    g_kernel.store(kernel, std::memory_order_relaxed);
+    g_distance_kernel.store(kernel, std::memory_order_relaxed);
     return true;
 }
 

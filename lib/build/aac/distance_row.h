@@ -4,6 +4,7 @@
 // (SSE on every x86-64, AVX chosen at run time) and a scalar fallback.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 
 namespace aacbvh {
@@ -53,7 +54,11 @@ uint32_t argmin_row(const float *row, uint32_t count, float &best);
 /// combines' AVX2 loop (build/aac/combine_small.h). Avx512 adds the small
 /// combines' AVX-512 loop and rows of 16 lanes.
 enum class DistanceKernel { Scalar, Sse, Avx, Avx2, Avx512 };
-DistanceKernel distance_kernel();
+/// The kernel in use (distance_row.cpp sets it); read inline, so that a
+/// small combine's dispatch (combine_clusters()) makes no call before its
+/// own tail call (docs/PERFORMANCE.md row 131).
+extern std::atomic<DistanceKernel> g_distance_kernel;
+inline DistanceKernel distance_kernel() { return g_distance_kernel.load(std::memory_order_relaxed); }
 /// Whether this build and CPU can run `kernel`.
 bool kernel_available(DistanceKernel kernel);
 /// Makes `kernel` the one in use; false (nothing changes) if it is not available.
