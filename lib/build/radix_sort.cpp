@@ -21,22 +21,42 @@ void sort_pairs(Array<Key> &keys, Array<Value> &values, unsigned key_bits, Sched
     // Each chunk counts and scatters its own slice; the scatter of chunk c
     // starts where chunks 0..c-1 of the same digit end, so the sort is stable
     // and its result independent of the chunk count.
-    const size_t chunks = std::max<size_t>(1, std::min<size_t>(scheduler.thread_count() * 4, n / kMinChunk));
+    // One thread sorts in one chunk.
+    const size_t chunks = scheduler.thread_count() == 1
+                              ? 1
+                              : std::max<size_t>(1, std::min<size_t>(scheduler.thread_count() * 4, n / kMinChunk));
     const size_t chunk_size = (n + chunks - 1) / chunks;
 
     Array<Key> keys_tmp(n);
     Array<Value> values_tmp(n);
     std::vector<uint32_t> counts(chunks * kBuckets);
+    // With one chunk, a pass's counts are those of the whole array, in any
+    // order: every pass's counts from one read of the keys.
+    std::vector<uint32_t> pass_counts;
+    if (chunks == 1 && passes <= 3) {
+        pass_counts.assign(3 * kBuckets, 0u);
+        uint32_t *c0 = pass_counts.data(), *c1 = c0 + kBuckets, *c2 = c1 + kBuckets;
+        for (size_t i = 0; i < n; ++i) {
+            const Key k = keys[i];
+            ++c0[k & (kBuckets - 1)];
+            ++c1[(k >> kDigitBits) & (kBuckets - 1)];
+            ++c2[(k >> (2 * kDigitBits)) & (kBuckets - 1)];
+        }
+    }
     for (unsigned p = 0; p < passes; ++p) {
         const unsigned shift = p * kDigitBits;
-        std::fill(counts.begin(), counts.end(), 0u);
-        scheduler.parallel_for(0, chunks, 1, [&](size_t c0, size_t c1) {
-            for (size_t c = c0; c < c1; ++c) {
-                uint32_t *count = &counts[c * kBuckets];
-                const size_t e = std::min(n, (c + 1) * chunk_size);
-                for (size_t i = c * chunk_size; i < e; ++i) ++count[(keys[i] >> shift) & (kBuckets - 1)];
-            }
-        });
+        if (!pass_counts.empty()) {
+            std::copy(&pass_counts[p * kBuckets], &pass_counts[p * kBuckets] + kBuckets, counts.begin());
+        } else {
+            std::fill(counts.begin(), counts.end(), 0u);
+            scheduler.parallel_for(0, chunks, 1, [&](size_t c0, size_t c1) {
+                for (size_t c = c0; c < c1; ++c) {
+                    uint32_t *count = &counts[c * kBuckets];
+                    const size_t e = std::min(n, (c + 1) * chunk_size);
+                    for (size_t i = c * chunk_size; i < e; ++i) ++count[(keys[i] >> shift) & (kBuckets - 1)];
+                }
+            });
+        }
         // Skip a digit on which every key agrees.
         const size_t first_digit = (keys[0] >> shift) & (kBuckets - 1);
         size_t same = 0;
