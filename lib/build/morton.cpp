@@ -22,9 +22,7 @@ void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<ui
     const MortonQuantizer quantizer(input.centroid_bounds);
     scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i) {
-            const Box &box = input.boxes[i];
-            const float c[3] = {box.centroid(0), box.centroid(1), box.centroid(2)};
-            const uint64_t code = quantizer.code(c);
+            const uint64_t code = quantizer.centroid_code(input.boxes[i]);
             high[i] = uint32_t(code >> kLowBits);
             low_index[i] = (code & ((uint64_t(1) << kLowBits) - 1)) << 32 | i;
         }

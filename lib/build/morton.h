@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <cstdint>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "build/build_input.h"
 #include "core/box.h"
@@ -68,6 +71,41 @@ public:
             // instruction (uint64_t's is not, before AVX-512).
             q[k] = cell <= 0.0 ? 0 : cell >= double(kCells - 1) ? uint32_t(kCells - 1) : uint32_t(int64_t(cell));
         }
+        return interleave(q);
+    }
+
+    /// code() of the box's centroid (Box::centroid()). With SSE2 the three
+    /// axes go two and one to a register, by the same float and double
+    /// operations: max with 0, then min with the last cell, then truncation
+    /// give what code()'s comparisons give, NaN included (0).
+    uint64_t centroid_code(const Box &box) const {
+#if defined(__SSE2__)
+        static_assert(sizeof(Box) == 6 * sizeof(float), "Box is lo[3] then hi[3]");
+        const float *f = reinterpret_cast<const float *>(&box);
+        const __m128 lo = _mm_loadu_ps(f);          // lo x, y, z, hi x
+        const __m128 upper = _mm_loadu_ps(f + 2);   // lo z, hi x, y, z
+        const __m128 hi = _mm_shuffle_ps(upper, upper, _MM_SHUFFLE(3, 3, 2, 1)); // hi x, y, z, z
+        const __m128 half = _mm_set1_ps(0.5f);
+        const __m128 c = _mm_add_ps(_mm_mul_ps(half, lo), _mm_mul_ps(half, hi));
+        const __m128d zero = _mm_setzero_pd(), last = _mm_set1_pd(double(kCells - 1));
+        const __m128d cell_xy = _mm_mul_pd(_mm_sub_pd(_mm_cvtps_pd(c), _mm_loadu_pd(origin_)), _mm_loadu_pd(scale_));
+        const __m128d cell_z =
+            _mm_mul_pd(_mm_sub_pd(_mm_cvtps_pd(_mm_movehl_ps(c, c)), _mm_loadu_pd(origin_ + 2)), _mm_loadu_pd(scale_ + 2));
+        const __m128i q_xy = _mm_cvttpd_epi32(_mm_min_pd(_mm_max_pd(cell_xy, zero), last));
+        const __m128i q_z = _mm_cvttpd_epi32(_mm_min_pd(_mm_max_pd(cell_z, zero), last));
+        const uint32_t q[3] = {uint32_t(_mm_cvtsi128_si32(q_xy)), uint32_t(_mm_cvtsi128_si32(_mm_srli_si128(q_xy, 4))),
+                               uint32_t(_mm_cvtsi128_si32(q_z))};
+        return interleave(q);
+#else
+        const float c[3] = {box.centroid(0), box.centroid(1), box.centroid(2)};
+        return code(c);
+#endif
+    }
+
+private:
+    static constexpr uint64_t kCells = uint64_t(1) << 21;
+
+    static uint64_t interleave(const uint32_t q[3]) {
         const uint32_t(&t)[3][256] = kMortonBytes.spread;
         const uint64_t low = t[0][q[0] & 255] | t[1][q[1] & 255] | t[2][q[2] & 255];
         const uint64_t mid = t[0][q[0] >> 8 & 255] | t[1][q[1] >> 8 & 255] | t[2][q[2] >> 8 & 255];
@@ -75,10 +113,8 @@ public:
         return low | mid << 24 | high << 48;
     }
 
-private:
-    static constexpr uint64_t kCells = uint64_t(1) << 21;
-    double origin_[3];
-    double scale_[3];
+    double origin_[4] = {}; ///< x, y, z and a spare 0 (centroid_code() loads pairs)
+    double scale_[4] = {};
 };
 
 /// Sorts the input's primitives by the Morton codes of their box centroids
