@@ -145,6 +145,41 @@ static void test_locally_ordered(void **state) { (void)state; run_builder(&k_bui
 static void test_ploc(void **state) { (void)state; run_builder(&k_builders[7]); }
 
 /* Box primitives, packed and with a stride, for every builder. */
+/* Trees deeper and leaves wider than the layout's first stack blocks
+ * (64 entries, build/flatten.cpp): boxes at x = 2^(i/8), each farther than
+ * the last, which the SAH builders peel off one at a time into a chain, and
+ * coincident boxes, which a leaf size of 1000 keeps in one leaf of 400. */
+static void test_deep_and_wide(void **state) {
+    const size_t n = 400;
+    size_t b, i;
+    char what[256];
+    float *chain = malloc(6 * n * sizeof(float));
+    float *same = malloc(6 * n * sizeof(float));
+    (void)state;
+    assert_non_null(chain);
+    assert_non_null(same);
+    for (i = 0; i < n; ++i) {
+        const float x = ldexpf(1.0f, (int)(i / 8)) * (1.0f + (float)(i % 8) / 8.0f);
+        const float c[6] = {x, 0.0f, 0.0f, x + 0.5f, 1.0f, 1.0f};
+        const float u[6] = {0.0f, 0.0f, 0.0f, 1.0f, 1.0f, 1.0f};
+        memcpy(chain + 6 * i, c, sizeof c);
+        memcpy(same + 6 * i, u, sizeof u);
+    }
+    for (b = 0; b < BUILDER_COUNT; ++b) {
+        aacbvh_bvh *deep = make_bvh(&k_builders[b], 1), *wide = make_bvh(&k_builders[b], 1000);
+        snprintf(what, sizeof what, "%s, a chain of %zu boxes, leaf 1", k_builders[b].name, n);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(deep, chain, n, 24), AACBVH_OK);
+        build_and_check(deep, chain, n, 1, what);
+        snprintf(what, sizeof what, "%s, %zu coincident boxes, leaf 1000", k_builders[b].name, n);
+        TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(wide, same, n, 24), AACBVH_OK);
+        build_and_check(wide, same, n, 1000, what);
+        aacbvh_bvh_destroy(deep);
+        aacbvh_bvh_destroy(wide);
+    }
+    free(chain);
+    free(same);
+}
+
 static void test_boxes(void **state) {
     const size_t sizes[] = {1, 2, 17, 1000};
     size_t b, si, i;
@@ -388,6 +423,7 @@ int main(void) {
         cmocka_unit_test(test_binned_sah),
         cmocka_unit_test(test_locally_ordered),
         cmocka_unit_test(test_ploc),
+        cmocka_unit_test(test_deep_and_wide),
         cmocka_unit_test(test_boxes),
         cmocka_unit_test(test_strided_and_unindexed),
         cmocka_unit_test(test_real_mesh),

@@ -66,46 +66,69 @@ private:
         node.count = 0;
     }
 
-    /// Asks for an inner node's children and box ahead of its turn: the
-    /// right child waits while the left one's subtree is laid out, and its
-    /// reads are scattered (dragon AAC-Fast: the emit 37 -> 31.5 ms with
-    /// warm memory, docs/PERFORMANCE.md row 74).
-    void prefetch(uint32_t id) const {
-        if (tree_.is_leaf(id)) return;
-        __builtin_prefetch(&tree_.children[2 * size_t(id - n_)]);
-        __builtin_prefetch(&tree_.boxes[id]);
-    }
-
+    /// The loop below keeps the arrays' pointers and its stacks in locals:
+    /// through members, every store to a node made the compiler read the
+    /// vectors' pointers and sizes again (docs/PERFORMANCE.md row 134).
     void emit_serial(uint32_t root, uint32_t root_pos, uint32_t root_below, uint32_t root_prim) {
         struct Item { uint32_t id, pos, below, prim; };
-        std::vector<Item> stack{{root, root_pos, root_below, root_prim}};
-        std::vector<uint32_t> gather;
-        while (!stack.empty()) {
-            Item it = stack.back();
-            stack.pop_back();
+        const uint32_t n = n_;
+        const uint32_t *const children = tree_.children.data();
+        const Box *const boxes = tree_.boxes.data();
+        const uint32_t *const leaf_prims = tree_.prim_ids.data();
+        const SubtreeCounts *const counts = choices_.counts();
+        Node *const nodes = out_.nodes.data();
+        uint32_t *const prim_out = out_.prim_ids.data();
+        auto leaves = [=](uint32_t id) { return id < n ? 1u : counts[id - n].leaves; };
+        auto prims = [=](uint32_t id) { return id < n ? 1u : counts[id - n].prims; };
+
+        std::vector<Item> stack_store(64);
+        std::vector<uint32_t> gather_store(64);
+        Item *stack = stack_store.data();
+        uint32_t *gather = gather_store.data();
+        size_t top = 0, gathered = 0;
+        stack[top++] = Item{root, root_pos, root_below, root_prim};
+        while (top != 0) {
+            Item it = stack[--top];
             // Down the left children; the right ones wait on the stack.
             while (leaves(it.id) != 1) {
-                const uint32_t l = tree_.left(it.id), r = tree_.right(it.id);
-                prefetch(r);
-                set_inner(it.id, it.pos, it.below);
+                const uint32_t l = children[2 * size_t(it.id - n)], r = children[2 * size_t(it.id - n) + 1];
+                // The right child's children and box, asked for ahead of its
+                // turn: it waits while the left subtree is laid out, and its
+                // reads are scattered (dragon AAC-Fast: the emit 37 -> 31.5 ms
+                // with warm memory, docs/PERFORMANCE.md row 74).
+                if (r >= n) {
+                    __builtin_prefetch(&children[2 * size_t(r - n)]);
+                    __builtin_prefetch(&boxes[r]);
+                }
+                Node &node = nodes[it.pos];
+                node.box = boxes[it.id];
+                node.first = it.below;
+                node.count = 0;
                 const uint32_t left_nodes = 2 * leaves(l) - 1;
-                stack.push_back({r, it.below + 1, it.below + 2 + (left_nodes - 1), it.prim + prims(l)});
+                if (top == stack_store.size()) {
+                    stack_store.resize(2 * top);
+                    stack = stack_store.data();
+                }
+                stack[top++] = Item{r, it.below + 1, it.below + 2 + (left_nodes - 1), it.prim + prims(l)};
                 it = Item{l, it.below, it.below + 2, it.prim};
             }
-            Node &node = out_.nodes[it.pos];
-            node.box = tree_.boxes[it.id];
+            Node &node = nodes[it.pos];
+            node.box = boxes[it.id];
             node.first = it.prim;
             node.count = prims(it.id);
             uint32_t slot = it.prim;
-            gather.push_back(it.id);
-            while (!gather.empty()) {
-                const uint32_t g = gather.back();
-                gather.pop_back();
-                if (tree_.is_leaf(g)) {
-                    out_.prim_ids[slot++] = tree_.prim_ids[g];
+            gather[gathered++] = it.id;
+            while (gathered != 0) {
+                const uint32_t g = gather[--gathered];
+                if (g < n) {
+                    prim_out[slot++] = leaf_prims[g];
                 } else {
-                    gather.push_back(tree_.right(g));
-                    gather.push_back(tree_.left(g));
+                    if (gathered + 2 > gather_store.size()) {
+                        gather_store.resize(2 * gather_store.size());
+                        gather = gather_store.data();
+                    }
+                    gather[gathered++] = children[2 * size_t(g - n) + 1];
+                    gather[gathered++] = children[2 * size_t(g - n)];
                 }
             }
         }

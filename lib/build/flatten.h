@@ -80,6 +80,8 @@ public:
     double cost(size_t k) const { return cost_[k]; }
     uint32_t prims(size_t k) const { return counts_[k].prims; }
     uint32_t leaves(size_t k) const { return counts_[k].leaves; }
+    /// The counts as an array, for loops that keep the pointer in a register.
+    const SubtreeCounts *counts() const { return counts_.data(); }
     void set_prims(size_t k, uint32_t prims) { counts_[k].prims = prims; }
     ChoiceTable table() { return ChoiceTable(cost_.data(), counts_.data()); }
     /// Frees the costs; get() and set() are then out of bounds.
