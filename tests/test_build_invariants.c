@@ -87,6 +87,16 @@ static void build_and_check(aacbvh_bvh *bvh, const float *boxes, size_t n, uint3
                  stats.sah_cost);
 }
 
+/* Sets `data` (n boxes, `stride` bytes apart; `boxes` the same packed) as
+ * the geometry, builds and checks; failures name the builder and `label`. */
+static void check_boxes(aacbvh_bvh *bvh, const float *data, size_t stride, const float *boxes, size_t n,
+                        uint32_t leaf, const char *builder, const char *label) {
+    char what[256];
+    snprintf(what, sizeof what, "%s, %s, n = %zu, leaf %u", builder, label, n, leaf);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(bvh, data, n, stride), AACBVH_OK);
+    build_and_check(bvh, boxes, n, leaf, what);
+}
+
 static void check_mesh(aacbvh_bvh *bvh, const ts_mesh *mesh, uint32_t leaf, const char *what) {
     float *boxes = ts_mesh_boxes(mesh);
     assert_non_null(boxes);
@@ -152,7 +162,6 @@ static void test_ploc(void **state) { (void)state; run_builder(&k_builders[7]); 
 static void test_deep_and_wide(void **state) {
     const size_t n = 400;
     size_t b, i;
-    char what[256];
     float *chain = malloc(6 * n * sizeof(float));
     float *same = malloc(6 * n * sizeof(float));
     (void)state;
@@ -167,12 +176,8 @@ static void test_deep_and_wide(void **state) {
     }
     for (b = 0; b < BUILDER_COUNT; ++b) {
         aacbvh_bvh *deep = make_bvh(&k_builders[b], 1), *wide = make_bvh(&k_builders[b], 1000);
-        snprintf(what, sizeof what, "%s, a chain of %zu boxes, leaf 1", k_builders[b].name, n);
-        TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(deep, chain, n, 24), AACBVH_OK);
-        build_and_check(deep, chain, n, 1, what);
-        snprintf(what, sizeof what, "%s, %zu coincident boxes, leaf 1000", k_builders[b].name, n);
-        TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(wide, same, n, 24), AACBVH_OK);
-        build_and_check(wide, same, n, 1000, what);
+        check_boxes(deep, chain, 24, chain, n, 1, k_builders[b].name, "a chain of boxes");
+        check_boxes(wide, same, 24, same, n, 1000, k_builders[b].name, "coincident boxes");
         aacbvh_bvh_destroy(deep);
         aacbvh_bvh_destroy(wide);
     }
@@ -183,7 +188,6 @@ static void test_deep_and_wide(void **state) {
 static void test_boxes(void **state) {
     const size_t sizes[] = {1, 2, 17, 1000};
     size_t b, si, i;
-    char what[256];
     (void)state;
     for (b = 0; b < BUILDER_COUNT; ++b) {
         aacbvh_bvh *bvh = make_bvh(&k_builders[b], 2);
@@ -204,15 +208,9 @@ static void test_boxes(void **state) {
                 if (i % 2) memset(points + 6 * i, 0, 3 * sizeof(float));
                 memcpy(points + 6 * i + 3, points + 6 * i, 3 * sizeof(float));
             }
-            snprintf(what, sizeof what, "%s, boxes, n = %zu", k_builders[b].name, n);
-            TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(bvh, boxes, n, 24), AACBVH_OK);
-            build_and_check(bvh, boxes, n, 2, what);
-            snprintf(what, sizeof what, "%s, strided boxes, n = %zu", k_builders[b].name, n);
-            TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(bvh, strided, n, 32), AACBVH_OK);
-            build_and_check(bvh, boxes, n, 2, what);
-            snprintf(what, sizeof what, "%s, point boxes, n = %zu", k_builders[b].name, n);
-            TS_EXPECT_STATUS(aacbvh_bvh_set_boxes(bvh, points, n, 24), AACBVH_OK);
-            build_and_check(bvh, points, n, 2, what);
+            check_boxes(bvh, boxes, 24, boxes, n, 2, k_builders[b].name, "boxes");
+            check_boxes(bvh, strided, 32, boxes, n, 2, k_builders[b].name, "strided boxes");
+            check_boxes(bvh, points, 24, points, n, 2, k_builders[b].name, "point boxes");
             free(boxes);
             free(strided);
             free(points);
