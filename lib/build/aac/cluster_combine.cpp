@@ -502,11 +502,12 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
     if (target < 1) target = 1;
     if (count <= target) return count;
     // With AVX2, combines of 9 to kWideSmallCombine clusters recompute rows in
-    // registers, faster than the matrix; up to 8 the scalar loop stays faster
-    // (docs/PERFORMANCE.md, change 51). Above that, AVX2 rows recomputed when
-    // needed beat the matrix's bookkeeping (two strided column writes per
-    // merge) at every size (change 76: dragon, the combines of ranges of
-    // 4,096 primitives and more, AAC-Fast 29 -> 19 ms, AAC-HQ 38 -> 25 ms).
+    // registers, faster than the matrix (docs/PERFORMANCE.md, change 51); up
+    // to kFewCombine the pair scan takes them (changes 112, 118 and 130).
+    // Above that, AVX2 rows recomputed when needed beat the matrix's
+    // bookkeeping (two strided column writes per merge) at every size
+    // (change 76: dragon, the combines of ranges of 4,096 primitives and
+    // more, AAC-Fast 29 -> 19 ms, AAC-HQ 38 -> 25 ms).
     // AVX-512 runs the same loops with 16 lanes a register (change 81).
     const DistanceKernel kernel = distance_kernel();
     const bool avx2 = kernel >= DistanceKernel::Avx2; // or AVX-512

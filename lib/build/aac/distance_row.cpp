@@ -304,7 +304,6 @@ DistanceKernel default_kernel() {
     return best == DistanceKernel::Avx512 && !avx512_pays() ? DistanceKernel::Avx2 : best;
 }
 
-
 } // namespace
 
 std::atomic<DistanceKernel> g_distance_kernel{default_kernel()};
