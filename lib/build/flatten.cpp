@@ -75,7 +75,7 @@ private:
         const uint32_t *const children = tree_.children.data();
         const Box *const boxes = tree_.boxes.data();
         const uint32_t *const leaf_prims = tree_.prim_ids.data();
-        const SubtreeCounts *const counts = choices_.counts();
+        const SubtreeCounts *const counts = choices_.counts().data();
         Node *const nodes = out_.nodes.data();
         uint32_t *const prim_out = out_.prim_ids.data();
         auto leaves = [=](uint32_t id) { return id < n ? 1u : counts[id - n].leaves; };

@@ -80,8 +80,6 @@ public:
     double cost(size_t k) const { return cost_[k]; }
     uint32_t prims(size_t k) const { return counts_[k].prims; }
     uint32_t leaves(size_t k) const { return counts_[k].leaves; }
-    /// The counts as an array, for loops that keep the pointer in a register.
-    const SubtreeCounts *counts() const { return counts_.data(); }
     void set_prims(size_t k, uint32_t prims) { counts_[k].prims = prims; }
     ChoiceTable table() { return ChoiceTable(cost_.data(), counts_.data()); }
     /// Frees the costs; get() and set() are then out of bounds.
@@ -93,6 +91,8 @@ public:
     /// The two arrays, for copying a tree's choices whole (the optimiser's undo).
     Array<double> &costs() { return cost_; }
     Array<SubtreeCounts> &counts() { return counts_; }
+    /// The counts alone (the binary emit reads them through a pointer).
+    const Array<SubtreeCounts> &counts() const { return counts_; }
 
 private:
     Array<double> cost_;
