@@ -34,16 +34,25 @@ template <int kVectors> struct SmallCombine {
     alignas(32) float nd[kLanes];     ///< distance to the nearest neighbour
     alignas(32) int32_t nn[kLanes];   ///< the nearest neighbour's slot
     alignas(32) float row[kLanes];    ///< the last row computed
-    Box box[kLanes];
     __m256 scale;
 
     void set(uint32_t i, const Box &b) {
-        box[i] = b;
         for (int k = 0; k < 3; ++k) {
             col[k][i] = b.lo[k];
             col[k + 3][i] = b.hi[k];
         }
     }
+
+    Box get(uint32_t i) const {
+        Box b;
+        for (int k = 0; k < 3; ++k) {
+            b.lo[k] = col[k][i];
+            b.hi[k] = col[k + 3][i];
+        }
+        return b;
+    }
+    /// The lanes that the loops below read for `count` live slots.
+    static uint32_t padded(uint32_t count) { return 8 * uint32_t(registers(count)); }
 
     /// Registers that hold slots [0, live): the loops below cover only those
     /// (lanes past live are +inf or dead), so a combine's rows shrink with its
@@ -75,6 +84,11 @@ template <int kVectors> struct SmallCombine {
     struct ClosestPair {
         const SmallCombine &s;
         template <int K> uint32_t run() const { return s.template closest_pair_in<K>(); }
+    };
+    struct AllNearest {
+        SmallCombine &s;
+        uint32_t count;
+        template <int K> void run() const { s.template all_nearest_in<K>(count); }
     };
     struct Update {
         SmallCombine &s;
@@ -110,6 +124,53 @@ template <int kVectors> struct SmallCombine {
             m = _mm256_min_ps(m, r[v]);
         }
         return first_equal<kUsed>(r, m, best);
+    }
+
+    /// nearest() of every slot in [0, count) into nd and nn, by columns:
+    /// each row d(i, .), in slot order, offers i to every lane, kept where
+    /// strictly nearer than the rows before (the lowest i of equals), so no
+    /// row is reduced to its minimum. d(i, j) and d(j, i) compare equal (max,
+    /// min and the area's products are symmetric; at most the sign of a zero
+    /// differs), so lane j ends with nearest(j)'s answer: the nearest other
+    /// slot, the lowest of equals.
+    void all_nearest(uint32_t count) { by_registers(count, AllNearest{*this, count}); }
+
+    template <int kUsed> void all_nearest_in(uint32_t count) {
+        const __m256 inf = _mm256_set1_ps(INFINITY), fmax = _mm256_set1_ps(FLT_MAX);
+        __m256 best[kUsed];
+        __m256i arg[kUsed];
+        for (int v = 0; v < kUsed; ++v) {
+            best[v] = inf;
+            arg[v] = _mm256_setzero_si256();
+        }
+        for (uint32_t i = 0; i < count; ++i) {
+            __m256 q[6];
+            for (int k = 0; k < 6; ++k) q[k] = _mm256_broadcast_ss(&col[k][i]);
+            const __m256i self = _mm256_set1_epi32(int(i));
+            for (int v = 0; v < kUsed; ++v) {
+                __m256 d[3];
+                for (int k = 0; k < 3; ++k)
+                    d[k] = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_load_ps(col[k + 3] + 8 * v), q[k + 3]),
+                                                       _mm256_min_ps(_mm256_load_ps(col[k] + 8 * v), q[k])),
+                                         scale);
+                __m256 area = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[1]), _mm256_mul_ps(d[1], d[2])),
+                                            _mm256_mul_ps(d[2], d[0]));
+                area = _mm256_min_ps(area, fmax); // NaN and overflow: FLT_MAX, as the scalar clamp
+                const __m256i lane =
+                    _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
+                const __m256 nearer = _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, self)),
+                                                       _mm256_cmp_ps(area, best[v], _CMP_LT_OQ));
+                best[v] = _mm256_blendv_ps(best[v], area, nearer);
+                arg[v] = _mm256_blendv_epi8(arg[v], self, _mm256_castps_si256(nearer));
+            }
+        }
+        const __m256i end = _mm256_set1_epi32(int(count));
+        for (int v = 0; v < kUsed; ++v) { // lanes past count: +inf and 0, as nearest() leaves them
+            const __m256i lane = _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
+            const __m256i in = _mm256_cmpgt_epi32(end, lane);
+            _mm256_store_ps(nd + 8 * v, _mm256_blendv_ps(inf, best[v], _mm256_castsi256_ps(in)));
+            _mm256_store_si256(reinterpret_cast<__m256i *>(nn + 8 * v), _mm256_and_si256(arg[v], in));
+        }
     }
 
     /// The lowest lane of r holding the minimum of the lane-wise minima m.

@@ -42,6 +42,10 @@ template <int kVectors> struct SmallCombine512 {
     Box box[kLanes];
     __m512 scale;
 
+    Box get(uint32_t i) const { return box[i]; }
+    /// The lanes that the loops below read (all of them).
+    static uint32_t padded(uint32_t) { return kLanes; }
+
     void set(uint32_t i, const Box &b) {
         box[i] = b;
         for (int k = 0; k < 3; ++k) {
@@ -54,6 +58,11 @@ template <int kVectors> struct SmallCombine512 {
     static uint64_t live_bits(uint32_t live, uint32_t except) {
         const uint64_t below = live >= 64 ? ~uint64_t(0) : (uint64_t(1) << live) - 1;
         return below & ~(uint64_t(1) << except);
+    }
+
+    /// nearest() of every slot in [0, count) into nd and nn.
+    void all_nearest(uint32_t count) {
+        for (uint32_t i = 0; i < count; ++i) nn[i] = int32_t(nearest(i, count, nd[i]));
     }
 
     /// d(i, j) for every lane j into `row`: +inf where j == i or j >= live.

@@ -1,11 +1,13 @@
 // The greedy loop of the SIMD small combines, included by each kernel's file
 // (combine_small_avx2.cpp, combine_small_avx512.cpp) inside its own target
 // region, after it has defined its register state S:
-//   S::kLanes; float nd[]; int32_t nn[]; Box box[];
-//   void set(uint32_t slot, const Box &);
+//   float nd[]; int32_t nn[];
+//   void set(uint32_t slot, const Box &); Box get(uint32_t slot) const;
+//   static uint32_t padded(uint32_t count);  the lanes its loops read;
 //   uint32_t nearest(uint32_t slot, uint32_t live, float &best);
 //     fills its row with d(slot, .) and returns the nearest other slot (the
 //     lowest on ties);
+//   void all_nearest(uint32_t count);  nearest() of every slot into nn and nd;
 //   uint32_t closest_pair(uint32_t live) const;  the lowest slot whose nd is
 //     the smallest (slots from live on hold +inf);
 //   void update(uint32_t a, uint32_t b, uint32_t last, uint32_t live);
@@ -25,12 +27,12 @@ uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, 
                      const FlattenRule &rule, ChoiceTable choices) {
     const uint32_t n = tree.leaf_count();
     for (uint32_t i = 0; i < count; ++i) s.set(i, tree.boxes[ids[i]]);
-    for (uint32_t i = count; i < S::kLanes; ++i) {
-        s.set(i, s.box[0]); // harmless padding lanes
+    for (uint32_t i = count; i < S::padded(count); ++i) {
+        s.set(i, tree.boxes[ids[0]]); // harmless padding lanes
         s.nd[i] = INFINITY;
         s.nn[i] = 0;
     }
-    for (uint32_t i = 0; i < count; ++i) s.nn[i] = int32_t(s.nearest(i, count, s.nd[i]));
+    s.all_nearest(count);
 
     uint32_t live = count, used = 0;
     while (live > target) {
@@ -39,7 +41,7 @@ uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, 
         if (a > b) std::swap(a, b);
 
         const uint32_t node = free_ids[used++];
-        const Box merged = unite(s.box[a], s.box[b]);
+        const Box merged = unite(s.get(a), s.get(b));
         tree.boxes[node] = merged;
         tree.set_children(node, ids[a], ids[b]);
         choices.set(node - n, rule.inner(merged, cluster_choice(tree, rule, choices, ids[a]),
@@ -47,7 +49,7 @@ uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, 
 
         const uint32_t last = live - 1;
         if (b != last) {
-            s.set(b, s.box[last]);
+            s.set(b, s.get(last));
             ids[b] = ids[last];
             s.nd[b] = s.nd[last];
             s.nn[b] = s.nn[last];
