@@ -297,6 +297,10 @@ struct CombineCase {
                 const float x = tie ? float(rng() % (seed % 4 == 0 ? 3 : 6)) : float(rng() % 100000) * 1e-3f;
                 b.lo[k] = x;
                 b.hi[k] = x + (tie ? 1.0f : float(rng() % 1000) * 1e-3f);
+                if (seed % 5 == 0 && i % 3 == 0) { // some distances overflow to FLT_MAX (and tie there)
+                    b.lo[k] -= 1e30f;
+                    b.hi[k] += 1e30f;
+                }
             }
             tree.boxes[i] = b;
             tree.prim_ids[i] = i;

@@ -79,7 +79,7 @@ template <int kVectors> struct SmallCombine {
         SmallCombine &s;
         uint32_t i, live;
         float &best;
-        template <int K> uint32_t run() const { return s.template nearest_in<K>(i, live, best); }
+        template <int K> uint32_t run() const { return s.template nearest_in<K>(i, best); }
     };
     struct ClosestPair {
         const SmallCombine &s;
@@ -96,16 +96,19 @@ template <int kVectors> struct SmallCombine {
         template <int K> void run() const { s.template update_in<K>(a, b, last, live); }
     };
 
-    /// d(i, j) for every lane j into `row`: +inf where j == i or j >= live.
-    /// Returns the smallest entry's slot (the lowest on ties) and its value.
+    /// d(i, j) for every lane j into `row`: +inf where j == i, FLT_MAX where
+    /// j >= live (the far box of greedy_loop(): no live slot's nearest is
+    /// taken from it, since live lanes come first and no distance exceeds
+    /// FLT_MAX). Returns the smallest entry's slot (the lowest on ties) and
+    /// its value.
     uint32_t nearest(uint32_t i, uint32_t live, float &best) { return by_registers(live, Nearest{*this, i, live, best}); }
 
     /// nearest() over the first kUsed registers (slots [0, 8 kUsed) hold every live one).
-    template <int kUsed> uint32_t nearest_in(uint32_t i, uint32_t live, float &best) {
+    template <int kUsed> uint32_t nearest_in(uint32_t i, float &best) {
         __m256 q[6];
         for (int k = 0; k < 6; ++k) q[k] = _mm256_broadcast_ss(&col[k][i]);
         const __m256 inf = _mm256_set1_ps(INFINITY), fmax = _mm256_set1_ps(FLT_MAX);
-        const __m256i self = _mm256_set1_epi32(int(i)), end = _mm256_set1_epi32(int(live));
+        const __m256i self = _mm256_set1_epi32(int(i));
         __m256 m = inf;
         __m256 r[kUsed];
         for (int v = 0; v < kUsed; ++v) {
@@ -118,8 +121,7 @@ template <int kVectors> struct SmallCombine {
                                         _mm256_mul_ps(d[2], d[0]));
             area = _mm256_min_ps(area, fmax); // NaN and overflow: FLT_MAX, as the scalar clamp
             const __m256i lane = _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
-            const __m256i off = _mm256_or_si256(_mm256_cmpeq_epi32(lane, self), _mm256_cmpgt_epi32(lane, _mm256_sub_epi32(end, _mm256_set1_epi32(1))));
-            r[v] = _mm256_blendv_ps(area, inf, _mm256_castsi256_ps(off));
+            r[v] = _mm256_blendv_ps(area, inf, _mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, self)));
             _mm256_store_ps(row + 8 * v, r[v]);
             m = _mm256_min_ps(m, r[v]);
         }
@@ -231,7 +233,7 @@ template <int kVectors> struct SmallCombine {
         }
         for (; again_bits; again_bits &= again_bits - 1) {
             const uint32_t j = uint32_t(__builtin_ctzll(again_bits));
-            nn[j] = int32_t(nearest_in<kUsed>(j, live, nd[j]));
+            nn[j] = int32_t(nearest_in<kUsed>(j, nd[j]));
         }
     }
 };
