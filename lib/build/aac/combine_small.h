@@ -4,6 +4,7 @@
 // cached matrix; the same merges as the scalar loops.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 #include "build/binary_tree.h"
@@ -13,6 +14,12 @@ namespace aacbvh {
 
 /// Largest combine the AVX2 and AVX-512 loops take.
 constexpr uint32_t kWideSmallCombine = 64;
+
+/// The box of the SIMD loops' lanes past the live slots: every distance to
+/// it is FLT_MAX (infinite extents), which no live slot's nearest takes from
+/// a live lane (those come first, the lowest of equals wins, and no
+/// distance exceeds FLT_MAX).
+constexpr Box kFarBox{{-INFINITY, -INFINITY, -INFINITY}, {INFINITY, INFINITY, INFINITY}};
 
 /// Whether this build of the library has the AVX2 loop (x86-64, GCC or Clang).
 bool combine_small_avx2_compiled();

@@ -43,6 +43,16 @@ template <int kVectors> struct SmallCombine {
         }
     }
 
+    /// A lane past the live slots: the far box, whose distances (FLT_MAX) a
+    /// live lane's are never above, nearest distance FLT_MAX, which no live
+    /// slot's is above either, and no neighbour (-1: never a slot, and below
+    /// every slot), so that no row, closest-pair scan or update need mask it.
+    void retire(uint32_t i) {
+        set(i, kFarBox);
+        nd[i] = FLT_MAX;
+        nn[i] = -1;
+    }
+
     Box get(uint32_t i) const {
         Box b;
         for (int k = 0; k < 3; ++k) {
@@ -93,7 +103,7 @@ template <int kVectors> struct SmallCombine {
     struct Update {
         SmallCombine &s;
         uint32_t a, b, last, live;
-        template <int K> void run() const { s.template update_in<K>(a, b, last, live); }
+        template <int K> void run() const { s.template update_in<K>(a, b, last); }
     };
 
     /// d(i, j) for every lane j into `row`: +inf where j == i, FLT_MAX where
@@ -167,11 +177,12 @@ template <int kVectors> struct SmallCombine {
             }
         }
         const __m256i end = _mm256_set1_epi32(int(count));
-        for (int v = 0; v < kUsed; ++v) { // lanes past count: +inf and 0, as nearest() leaves them
+        for (int v = 0; v < kUsed; ++v) { // lanes past count: as retire() leaves them
             const __m256i lane = _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
             const __m256i in = _mm256_cmpgt_epi32(end, lane);
-            _mm256_store_ps(nd + 8 * v, _mm256_blendv_ps(inf, best[v], _mm256_castsi256_ps(in)));
-            _mm256_store_si256(reinterpret_cast<__m256i *>(nn + 8 * v), _mm256_and_si256(arg[v], in));
+            _mm256_store_ps(nd + 8 * v, _mm256_blendv_ps(fmax, best[v], _mm256_castsi256_ps(in)));
+            _mm256_store_si256(reinterpret_cast<__m256i *>(nn + 8 * v),
+                               _mm256_blendv_epi8(_mm256_set1_epi32(-1), arg[v], in));
         }
     }
 
@@ -209,29 +220,27 @@ template <int kVectors> struct SmallCombine {
         by_registers(live, Update{*this, a, b, last, live});
     }
 
-    template <int kUsed> void update_in(uint32_t a, uint32_t b, uint32_t last, uint32_t live) {
+    template <int kUsed> void update_in(uint32_t a, uint32_t b, uint32_t last) {
         const __m256i va = _mm256_set1_epi32(int(a)), vb = _mm256_set1_epi32(int(b)),
                       vlast = _mm256_set1_epi32(int(last));
         uint64_t again_bits = 0;
         for (int v = 0; v < kUsed; ++v) {
-            const __m256i lane = _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
-            const __m256i live_lane =
-                _mm256_andnot_si256(_mm256_cmpeq_epi32(lane, va), _mm256_cmpgt_epi32(_mm256_set1_epi32(int(live)), lane));
+            // Retired lanes need no mask (no neighbour, FLT_MAX both ways);
+            // slot a's entries are set by the caller after this.
             __m256i p = _mm256_load_si256(reinterpret_cast<const __m256i *>(nn + 8 * v));
-            const __m256i again =
-                _mm256_and_si256(_mm256_or_si256(_mm256_cmpeq_epi32(p, va), _mm256_cmpeq_epi32(p, vb)), live_lane);
+            const __m256i again = _mm256_or_si256(_mm256_cmpeq_epi32(p, va), _mm256_cmpeq_epi32(p, vb));
             p = _mm256_blendv_epi8(p, vb, _mm256_cmpeq_epi32(p, vlast));
             const __m256 d = _mm256_load_ps(row + 8 * v), n = _mm256_load_ps(nd + 8 * v);
             const __m256i closer = _mm256_castps_si256(
                 _mm256_or_ps(_mm256_cmp_ps(d, n, _CMP_LT_OQ),
                              _mm256_and_ps(_mm256_cmp_ps(d, n, _CMP_EQ_OQ), _mm256_castsi256_ps(_mm256_cmpgt_epi32(p, va)))));
-            const __m256i take = _mm256_andnot_si256(again, _mm256_and_si256(closer, live_lane));
+            const __m256i take = _mm256_andnot_si256(again, closer);
             p = _mm256_blendv_epi8(p, va, take);
             _mm256_store_si256(reinterpret_cast<__m256i *>(nn + 8 * v), p);
             _mm256_store_ps(nd + 8 * v, _mm256_blendv_ps(n, d, _mm256_castsi256_ps(take)));
             again_bits |= uint64_t(unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(again)))) << (8 * v);
         }
-        for (; again_bits; again_bits &= again_bits - 1) {
+        for (again_bits &= ~(uint64_t(1) << a); again_bits; again_bits &= again_bits - 1) {
             const uint32_t j = uint32_t(__builtin_ctzll(again_bits));
             nn[j] = int32_t(nearest_in<kUsed>(j, nd[j]));
         }

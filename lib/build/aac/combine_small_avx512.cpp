@@ -46,6 +46,13 @@ template <int kVectors> struct SmallCombine512 {
     /// The lanes that the loops below read (all of them).
     static uint32_t padded(uint32_t) { return kLanes; }
 
+    /// A lane past the live slots (its loops mask them: any box would do).
+    void retire(uint32_t i) {
+        set(i, kFarBox);
+        nd[i] = INFINITY;
+        nn[i] = 0;
+    }
+
     void set(uint32_t i, const Box &b) {
         box[i] = b;
         for (int k = 0; k < 3; ++k) {

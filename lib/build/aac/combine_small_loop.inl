@@ -3,8 +3,8 @@
 // region, after it has defined its register state S:
 //   float nd[]; int32_t nn[];
 //   void set(uint32_t slot, const Box &); Box get(uint32_t slot) const;
-//   static uint32_t padded(uint32_t count);  the lanes its loops read
-//     (lanes past the live slots hold kFarBox);
+//   static uint32_t padded(uint32_t count);  the lanes its loops read;
+//   void retire(uint32_t slot);  a lane past the live slots (kFarBox);
 //   uint32_t nearest(uint32_t slot, uint32_t live, float &best);
 //     fills its row with d(slot, .) and returns the nearest other slot (the
 //     lowest on ties);
@@ -23,21 +23,12 @@ inline SubtreeChoice cluster_choice(const BinaryTree &tree, const FlattenRule &r
     return id < n ? rule.leaf(tree.boxes[id]) : choices.get(id - n);
 }
 
-/// The box of the lanes past the live slots: every distance to it is
-/// FLT_MAX (infinite extents), which no live slot's nearest takes from a
-/// live lane (those come first, and a distance is at most FLT_MAX).
-constexpr Box kFarBox{{-INFINITY, -INFINITY, -INFINITY}, {INFINITY, INFINITY, INFINITY}};
-
 template <class S>
 uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count, uint32_t target,
                      const FlattenRule &rule, ChoiceTable choices) {
     const uint32_t n = tree.leaf_count();
     for (uint32_t i = 0; i < count; ++i) s.set(i, tree.boxes[ids[i]]);
-    for (uint32_t i = count; i < S::padded(count); ++i) {
-        s.set(i, kFarBox);
-        s.nd[i] = INFINITY;
-        s.nn[i] = 0;
-    }
+    for (uint32_t i = count; i < S::padded(count); ++i) s.retire(i);
     s.all_nearest(count);
 
     uint32_t live = count, used = 0;
@@ -60,8 +51,7 @@ uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, 
             s.nd[b] = s.nd[last];
             s.nn[b] = s.nn[last];
         }
-        s.set(last, kFarBox); // no longer live
-        s.nd[last] = INFINITY;
+        s.retire(last); // no longer live
         live = last;
         s.set(a, merged);
         ids[a] = node;
