@@ -85,11 +85,23 @@ __attribute__((target("avx"))) void distance_row_avx(const BoxColumns &b, uint32
     for (uint32_t j = 0; j < count; j += 8) _mm256_storeu_ps(out + j, distances_avx(b, j, query));
 }
 
+/// A lane-wise choice by a compare mask: `yes` where set, else `no`. With
+/// kBlend one blend; else and / andnot / or, since GCC turns a blend on a
+/// compare mask into a select that it lowers lane by lane when only AVX
+/// (not AVX2) is enabled.
+template <bool kBlend>
+__attribute__((target("avx"), always_inline)) inline __m256 select_lanes(__m256 mask, __m256 yes, __m256 no) {
+    if (kBlend) return _mm256_blendv_ps(no, yes, mask);
+    return _mm256_or_ps(_mm256_and_ps(mask, yes), _mm256_andnot_ps(mask, no));
+}
+
 /// The AVX row with the nearest-neighbour search folded in: lanes past
 /// `count` and the `self` lane are not candidates; each lane keeps its
 /// smallest value and the first index holding it, then the lanes reduce.
-__attribute__((target("avx"))) uint32_t distance_row_argmin_avx(const BoxColumns &b, uint32_t count, const float q[6],
-                                                                float scale, float *out, uint32_t self, float &best) {
+template <bool kBlend>
+__attribute__((target("avx"), always_inline)) inline uint32_t row_argmin_avx(const BoxColumns &b, uint32_t count,
+                                                                             const float q[6], float scale, float *out,
+                                                                             uint32_t self, float &best) {
     const QueryAvx query = query_avx(q, scale);
     const __m256 inf = _mm256_set1_ps(INFINITY);
     const __m256 self_index = _mm256_set1_ps(float(self)), end = _mm256_set1_ps(float(count));
@@ -98,15 +110,12 @@ __attribute__((target("avx"))) uint32_t distance_row_argmin_avx(const BoxColumns
     __m256 m = inf, at = _mm256_setzero_ps();
     for (uint32_t j = 0; j < count; j += 8, index = _mm256_add_ps(index, eight)) {
         __m256 area = distances_avx(b, j, query);
-        // Selects with and/andnot/or: GCC scalarises blendv on compare masks here.
-        const __m256 is_self = _mm256_cmp_ps(index, self_index, _CMP_EQ_OQ);
-        area = _mm256_or_ps(_mm256_and_ps(is_self, inf), _mm256_andnot_ps(is_self, area));
+        area = select_lanes<kBlend>(_mm256_cmp_ps(index, self_index, _CMP_EQ_OQ), inf, area);
         _mm256_storeu_ps(out + j, area);
-        const __m256 inside = _mm256_cmp_ps(index, end, _CMP_LT_OQ);
-        const __m256 candidate = _mm256_or_ps(_mm256_and_ps(inside, area), _mm256_andnot_ps(inside, inf));
+        const __m256 candidate = select_lanes<kBlend>(_mm256_cmp_ps(index, end, _CMP_LT_OQ), area, inf);
         const __m256 less = _mm256_cmp_ps(candidate, m, _CMP_LT_OQ);
         m = _mm256_min_ps(candidate, m); // = candidate where less, else m
-        at = _mm256_or_ps(_mm256_and_ps(less, index), _mm256_andnot_ps(less, at));
+        at = select_lanes<kBlend>(less, index, at);
     }
     __m256 h = _mm256_min_ps(m, _mm256_permute2f128_ps(m, m, 1));
     h = _mm256_min_ps(h, _mm256_shuffle_ps(h, h, _MM_SHUFFLE(1, 0, 3, 2)));
@@ -120,11 +129,25 @@ __attribute__((target("avx"))) uint32_t distance_row_argmin_avx(const BoxColumns
     return uint32_t(arg);
 }
 
+__attribute__((target("avx"))) uint32_t distance_row_argmin_avx(const BoxColumns &b, uint32_t count, const float q[6],
+                                                                float scale, float *out, uint32_t self, float &best) {
+    return row_argmin_avx<false>(b, count, q, scale, out, self, best);
+}
+
+/// The same with AVX2 enabled, where a blend stays one instruction.
+__attribute__((target("avx2"))) uint32_t distance_row_argmin_avx2(const BoxColumns &b, uint32_t count,
+                                                                  const float q[6], float scale, float *out,
+                                                                  uint32_t self, float &best) {
+    return row_argmin_avx<true>(b, count, q, scale, out, self, best);
+}
+
 
 /// nearest_rows() with eight lanes: row i covers the slots above it only and
 /// leaves its distances as column minima for the rows below them.
-__attribute__((target("avx"))) void nearest_rows_avx(const BoxColumns &b, uint32_t count, float scale,
-                                                      uint32_t first, uint32_t last, float *nd, uint32_t *nn) {
+template <bool kBlend>
+__attribute__((target("avx"), always_inline)) inline void rows_nearest_avx(const BoxColumns &b, uint32_t count,
+                                                                           float scale, uint32_t first, uint32_t last,
+                                                                           float *nd, uint32_t *nn) {
     const __m256 inf = _mm256_set1_ps(INFINITY), end = _mm256_set1_ps(float(count)), eight = _mm256_set1_ps(8.0f);
     for (uint32_t i = first; i < last; ++i) {
         const float q[6] = {b.lo[0][i], b.lo[1][i], b.lo[2][i], b.hi[0][i], b.hi[1][i], b.hi[2][i]};
@@ -137,17 +160,17 @@ __attribute__((target("avx"))) void nearest_rows_avx(const BoxColumns &b, uint32
         for (uint32_t j = start; j < count; j += 8, index = _mm256_add_ps(index, eight)) {
             const __m256 area = distances_avx(b, j, query);
             const __m256 above = _mm256_and_ps(_mm256_cmp_ps(index, self, _CMP_GT_OQ), _mm256_cmp_ps(index, end, _CMP_LT_OQ));
-            const __m256 candidate = _mm256_or_ps(_mm256_and_ps(above, area), _mm256_andnot_ps(above, inf));
+            const __m256 candidate = select_lanes<kBlend>(above, area, inf);
             const __m256 less = _mm256_cmp_ps(candidate, m, _CMP_LT_OQ);
             m = _mm256_min_ps(candidate, m);
-            at = _mm256_or_ps(_mm256_and_ps(less, index), _mm256_andnot_ps(less, at));
+            at = select_lanes<kBlend>(less, index, at);
             // The slots above i: row i is their nearest lower row if strictly
             // closer than the rows before it (so the lowest row wins ties).
             const __m256 column = _mm256_loadu_ps(nd + j);
             const __m256 closer = _mm256_cmp_ps(candidate, column, _CMP_LT_OQ);
-            _mm256_storeu_ps(nd + j, _mm256_or_ps(_mm256_and_ps(closer, candidate), _mm256_andnot_ps(closer, column)));
+            _mm256_storeu_ps(nd + j, select_lanes<kBlend>(closer, candidate, column));
             float *owner = reinterpret_cast<float *>(nn + j);
-            _mm256_storeu_ps(owner, _mm256_or_ps(_mm256_and_ps(closer, row_bits), _mm256_andnot_ps(closer, _mm256_loadu_ps(owner))));
+            _mm256_storeu_ps(owner, select_lanes<kBlend>(closer, row_bits, _mm256_loadu_ps(owner)));
         }
         __m256 h = _mm256_min_ps(m, _mm256_permute2f128_ps(m, m, 1));
         h = _mm256_min_ps(h, _mm256_shuffle_ps(h, h, _MM_SHUFFLE(1, 0, 3, 2)));
@@ -162,6 +185,17 @@ __attribute__((target("avx"))) void nearest_rows_avx(const BoxColumns &b, uint32
         nd[i] = up;
         nn[i] = uint32_t(arg);
     }
+}
+
+__attribute__((target("avx"))) void nearest_rows_avx(const BoxColumns &b, uint32_t count, float scale, uint32_t first,
+                                                      uint32_t last, float *nd, uint32_t *nn) {
+    rows_nearest_avx<false>(b, count, scale, first, last, nd, nn);
+}
+
+/// The same with AVX2 enabled, where a blend stays one instruction.
+__attribute__((target("avx2"))) void nearest_rows_avx2(const BoxColumns &b, uint32_t count, float scale, uint32_t first,
+                                                        uint32_t last, float *nd, uint32_t *nn) {
+    rows_nearest_avx<true>(b, count, scale, first, last, nd, nn);
 }
 
 // GCC 12's avx512fintrin.h warns of its own self-initialised placeholder
@@ -339,6 +373,8 @@ uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const floa
 #ifdef AACBVH_X86
     if (distance_kernel() == DistanceKernel::Avx512 && count < kFloatIndexLimit)
         return distance_row_argmin_avx512(boxes, count, query, scale, out, self, best);
+    if (distance_kernel() == DistanceKernel::Avx2 && count < kFloatIndexLimit)
+        return distance_row_argmin_avx2(boxes, count, query, scale, out, self, best);
     if (distance_kernel() >= DistanceKernel::Avx && count < kFloatIndexLimit)
         return distance_row_argmin_avx(boxes, count, query, scale, out, self, best);
 #endif
@@ -350,6 +386,10 @@ uint32_t distance_row_argmin(const BoxColumns &boxes, uint32_t count, const floa
 void nearest_rows(const BoxColumns &boxes, uint32_t count, float scale, uint32_t first, uint32_t last, float *nd,
                   uint32_t *nn, float *scratch) {
 #ifdef AACBVH_X86
+    if (distance_kernel() >= DistanceKernel::Avx2 && count < kFloatIndexLimit) {
+        nearest_rows_avx2(boxes, count, scale, first, last, nd, nn);
+        return;
+    }
     if (distance_kernel() >= DistanceKernel::Avx && count < kFloatIndexLimit) {
         nearest_rows_avx(boxes, count, scale, first, last, nd, nn);
         return;
