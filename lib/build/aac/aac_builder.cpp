@@ -63,8 +63,9 @@ private:
                 clusters_[b + i] = b + i;
                 free_ids_[b + i] = n_ + b + i;
             }
-            return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n, root ? 1 : target(config_.delta), scale_,
-                                    rule_, choices_, scratch_, ctx_);
+            const uint32_t t = root ? 1 : target(config_.delta);
+            if (n <= t) return n; // nothing to merge (combine_clusters' own first test, without the call)
+            return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n, t, scale_, rule_, choices_, scratch_, ctx_);
         }
         if (n >= 256) ctx_.poll();
         const uint32_t m = split_point(b, e);
