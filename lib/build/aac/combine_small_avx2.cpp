@@ -280,16 +280,24 @@ alignas(32) constexpr int32_t kPairB[4][32] = {{1, 2, 3, 2, 3, 3},
                                                 {1, 2, 3, 4, 5, 6, 2, 3, 4, 5, 6, 3, 4, 5, 6, 4, 5, 6, 5, 6, 6},
                                                 {1, 2, 3, 4, 5, 6, 7, 2, 3, 4, 5, 6, 7, 3, 4, 5, 6, 7, 4, 5, 6, 7, 5, 6, 7, 6, 7, 7}};
 
-/// Coordinate k of the first kSlots boxes' lo (or hi) corners, zeros past
-/// them, made in registers.
-template <uint32_t kSlots> inline float corner_entry(const Box *box, uint32_t i, int k, bool hi) {
-    return i < kSlots ? (hi ? box[i].hi[k] : box[i].lo[k]) : 0.0f;
-}
-template <uint32_t kSlots> inline __m256 corner_column(const Box *box, int k, bool hi) {
-    return _mm256_setr_ps(corner_entry<kSlots>(box, 0, k, hi), corner_entry<kSlots>(box, 1, k, hi),
-                          corner_entry<kSlots>(box, 2, k, hi), corner_entry<kSlots>(box, 3, k, hi),
-                          corner_entry<kSlots>(box, 4, k, hi), corner_entry<kSlots>(box, 5, k, hi),
-                          corner_entry<kSlots>(box, 6, k, hi), corner_entry<kSlots>(box, 7, k, hi));
+/// Four boxes' six coordinates as columns (lo x, y, z, hi x, y, z), lane i
+/// from box[i]: each box's first four floats (lo x, y, z, hi x) and last two
+/// (hi y, z) loaded, then transposed.
+inline void corner_columns4(const Box *const box[4], __m128 (&c)[6]) {
+    __m128 r[4], y[4];
+    for (int k = 0; k < 4; ++k) {
+        r[k] = _mm_loadu_ps(box[k]->lo);
+        y[k] = _mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double *>(box[k]->hi + 1)));
+    }
+    const __m128 t0 = _mm_unpacklo_ps(r[0], r[1]), t1 = _mm_unpacklo_ps(r[2], r[3]);
+    const __m128 t2 = _mm_unpackhi_ps(r[0], r[1]), t3 = _mm_unpackhi_ps(r[2], r[3]);
+    const __m128 u0 = _mm_unpacklo_ps(y[0], y[1]), u1 = _mm_unpacklo_ps(y[2], y[3]);
+    c[0] = _mm_movelh_ps(t0, t1);
+    c[1] = _mm_movehl_ps(t1, t0);
+    c[2] = _mm_movelh_ps(t2, t3);
+    c[3] = _mm_movehl_ps(t3, t2);
+    c[4] = _mm_movelh_ps(u0, u1);
+    c[5] = _mm_movehl_ps(u1, u0);
 }
 
 /// The combines of at most kFewCombine = 8 clusters (most of AAC-Fast's:
@@ -315,12 +323,19 @@ uint32_t combine_pairs(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint
         pb[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(kPairB[R - 1] + 8 * v));
         real[v] = _mm256_cmpgt_epi32(_mm256_set1_epi32(kPairCount[R - 1] - 8 * v), lane);
     }
-    Box box[kSlots];
-    for (uint32_t i = 0; i < kSlots; ++i) box[i] = tree.boxes[ids[i < count ? i : 0]]; // past count: harmless copies
-    __m256 c[6]; // the columns: lo x, y, z, hi x, y, z
-    for (int k = 0; k < 3; ++k) {
-        c[k] = corner_column<kSlots>(box, k, false);
-        c[k + 3] = corner_column<kSlots>(box, k, true);
+    // The columns (lo x, y, z, hi x, y, z) of slots [0, kSlots): slots past
+    // count are harmless copies of slot 0; with four slots the upper half
+    // is never read (every pair's slots are below four).
+    __m256 c[6];
+    {
+        const Box *box[8];
+        for (uint32_t i = 0; i < 8; ++i) box[i] = &tree.boxes[ids[i < count ? i : 0]];
+        __m128 low[6], high[6];
+        corner_columns4(box, low);
+        if (kSlots > 4) corner_columns4(box + 4, high);
+        for (int k = 0; k < 6; ++k)
+            c[k] = kSlots > 4 ? _mm256_insertf128_ps(_mm256_castps128_ps256(low[k]), high[k], 1)
+                             : _mm256_zextps128_ps256(low[k]);
     }
 
     uint32_t live = count, used = 0;
@@ -353,7 +368,7 @@ uint32_t combine_pairs(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint
         const uint32_t a = uint32_t(kPairA[R - 1][p]), b = uint32_t(kPairB[R - 1][p]);
 
         const uint32_t node = free_ids[used++];
-        const Box merged = unite(box[a], box[b]);
+        const Box merged = unite(tree.boxes[ids[a]], tree.boxes[ids[b]]);
         tree.boxes[node] = merged;
         tree.set_children(node, ids[a], ids[b]);
         choices.set(node - n, rule.inner(merged, cluster_choice(tree, rule, choices, ids[a]),
@@ -361,13 +376,12 @@ uint32_t combine_pairs(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint
 
         const uint32_t last = live - 1;
         live = last;
-        box[a] = merged;
         ids[a] = node;
         set_few_lane(c, _mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, _mm256_set1_epi32(int(a)))), merged);
         if (b != last) { // the last live cluster moves into slot b
-            box[b] = box[last];
             ids[b] = ids[last];
-            set_few_lane(c, _mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, _mm256_set1_epi32(int(b)))), box[b]);
+            set_few_lane(c, _mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, _mm256_set1_epi32(int(b)))),
+                         tree.boxes[ids[b]]);
         }
     }
     for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
