@@ -85,12 +85,6 @@ template <int kVectors> struct SmallCombine {
         default: return op.template run<kVectors>();
         }
     }
-    struct Nearest {
-        SmallCombine &s;
-        uint32_t i, live;
-        float &best;
-        template <int K> uint32_t run() const { return s.template nearest_in<K>(i, best); }
-    };
     struct ClosestPair {
         const SmallCombine &s;
         template <int K> uint32_t run() const { return s.template closest_pair_in<K>(); }
@@ -100,20 +94,18 @@ template <int kVectors> struct SmallCombine {
         uint32_t count;
         template <int K> void run() const { s.template all_nearest_in<K>(count); }
     };
-    struct Update {
+    struct AfterMerge {
         SmallCombine &s;
-        uint32_t a, b, last, live;
-        template <int K> void run() const { s.template update_in<K>(a, b, last); }
+        uint32_t a, b, last;
+        template <int K> uint32_t run() const { return s.template after_merge_in<K>(a, b, last); }
     };
 
-    /// d(i, j) for every lane j into `row`: +inf where j == i, FLT_MAX where
-    /// j >= live (the far box of greedy_loop(): no live slot's nearest is
+    /// d(i, j) for every lane j of the first kUsed registers (slots [0, 8
+    /// kUsed) hold every live one) into `row`: +inf where j == i, FLT_MAX
+    /// where j >= live (a retired lane's far box: no live slot's nearest is
     /// taken from it, since live lanes come first and no distance exceeds
     /// FLT_MAX). Returns the smallest entry's slot (the lowest on ties) and
     /// its value.
-    uint32_t nearest(uint32_t i, uint32_t live, float &best) { return by_registers(live, Nearest{*this, i, live, best}); }
-
-    /// nearest() over the first kUsed registers (slots [0, 8 kUsed) hold every live one).
     template <int kUsed> uint32_t nearest_in(uint32_t i, float &best) {
         __m256 q[6];
         for (int k = 0; k < 6; ++k) q[k] = _mm256_broadcast_ss(&col[k][i]);
@@ -138,12 +130,12 @@ template <int kVectors> struct SmallCombine {
         return first_equal<kUsed>(r, m, best);
     }
 
-    /// nearest() of every slot in [0, count) into nd and nn, by columns:
+    /// nearest_in() of every slot in [0, count) into nd and nn, by columns:
     /// each row d(i, .), in slot order, offers i to every lane, kept where
     /// strictly nearer than the rows before (the lowest i of equals), so no
     /// row is reduced to its minimum. d(i, j) and d(j, i) compare equal (max,
     /// min and the area's products are symmetric; at most the sign of a zero
-    /// differs), so lane j ends with nearest(j)'s answer: the nearest other
+    /// differs), so lane j ends with nearest_in(j)'s answer: the nearest other
     /// slot, the lowest of equals.
     void all_nearest(uint32_t count) { by_registers(count, AllNearest{*this, count}); }
 
@@ -216,8 +208,19 @@ template <int kVectors> struct SmallCombine {
     /// with `row` = d(a, .): the slots whose nearest neighbour was a or b search
     /// again; the others follow a partner moved from last to b and take a when
     /// it is closer (or as close with a lower slot). The scalar loop's rules.
-    void update(uint32_t a, uint32_t b, uint32_t last, uint32_t live) {
-        by_registers(live, Update{*this, a, b, last, live});
+    /// The greedy loop's step after a merge (combine_small_loop.inl), all
+    /// over the registers of `live` slots, chosen once.
+    uint32_t after_merge(uint32_t a, uint32_t b, uint32_t last, uint32_t live) {
+        return by_registers(live, AfterMerge{*this, a, b, last});
+    }
+
+    template <int kUsed> uint32_t after_merge_in(uint32_t a, uint32_t b, uint32_t last) {
+        float best;
+        const uint32_t nearest_a = nearest_in<kUsed>(a, best); // fills the row with d(a, .)
+        update_in<kUsed>(a, b, last);
+        nn[a] = int32_t(nearest_a);
+        nd[a] = best;
+        return closest_pair_in<kUsed>();
     }
 
     template <int kUsed> void update_in(uint32_t a, uint32_t b, uint32_t last) {

@@ -119,6 +119,16 @@ template <int kVectors> struct SmallCombine512 {
         return first_equal(r, m, ignored);
     }
 
+    /// The greedy loop's step after a merge (combine_small_loop.inl).
+    uint32_t after_merge(uint32_t a, uint32_t b, uint32_t last, uint32_t live) {
+        float best;
+        const uint32_t nearest_a = nearest(a, live, best); // fills the row with d(a, .)
+        update(a, b, last, live);
+        nn[a] = int32_t(nearest_a);
+        nd[a] = best;
+        return closest_pair(live);
+    }
+
     /// After merging a and b (a < b) into slot a and moving slot `last` to b,
     /// with `row` = d(a, .): the slots whose nearest neighbour was a or b search
     /// again; the others follow a partner moved from last to b and take a when

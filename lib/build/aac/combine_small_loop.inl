@@ -5,14 +5,14 @@
 //   void set(uint32_t slot, const Box &); Box get(uint32_t slot) const;
 //   static uint32_t padded(uint32_t count);  the lanes its loops read;
 //   void retire(uint32_t slot);  a lane past the live slots (kFarBox);
-//   uint32_t nearest(uint32_t slot, uint32_t live, float &best);
-//     fills its row with d(slot, .) and returns the nearest other slot (the
-//     lowest on ties);
-//   void all_nearest(uint32_t count);  nearest() of every slot into nn and nd;
+//   void all_nearest(uint32_t count);  every slot's nearest other slot (the
+//     lowest of equals) into nn, its distance into nd;
 //   uint32_t closest_pair(uint32_t live) const;  the lowest slot whose nd is
-//     the smallest (slots from live on hold +inf);
-//   void update(uint32_t a, uint32_t b, uint32_t last, uint32_t live);
-//     the nearest-neighbour bookkeeping after a merge, with the row = d(a, .).
+//     the smallest;
+//   uint32_t after_merge(uint32_t a, uint32_t b, uint32_t last, uint32_t live);
+//     after merging a and b into slot a and moving slot last to b: slot a's
+//     nearest (its row d(a, .)), the others' nearest-neighbour bookkeeping,
+//     then closest_pair(live) for the next merge.
 // The merges are those of the scalar loop (build/aac/cluster_combine.cpp).
 // No lambdas here: a target region does not reach into them.
 
@@ -32,8 +32,9 @@ uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, 
     s.all_nearest(count);
 
     uint32_t live = count, used = 0;
+    uint32_t next = s.closest_pair(live);
     while (live > target) {
-        uint32_t a = s.closest_pair(live);
+        uint32_t a = next;
         uint32_t b = uint32_t(s.nn[a]);
         if (a > b) std::swap(a, b);
 
@@ -55,11 +56,7 @@ uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, 
         live = last;
         s.set(a, merged);
         ids[a] = node;
-        float best;
-        const uint32_t nearest_a = s.nearest(a, live, best); // fills the row with d(a, .)
-        s.update(a, b, last, live);
-        s.nn[a] = int32_t(nearest_a);
-        s.nd[a] = best;
+        next = s.after_merge(a, b, last, live);
     }
     for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
     return live;
