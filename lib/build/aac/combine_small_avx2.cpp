@@ -100,6 +100,25 @@ template <int kVectors> struct SmallCombine {
         template <int K> uint32_t run() const { return s.template after_merge_in<K>(a, b, last); }
     };
 
+    /// Slot i's box, each coordinate in all lanes of a register.
+    [[gnu::always_inline]] void query(uint32_t i, __m256 (&q)[6]) const {
+        for (int k = 0; k < 6; ++k) q[k] = _mm256_broadcast_ss(&col[k][i]);
+    }
+
+    /// The distances from query box q to the slots of register v: the
+    /// operations of scaled_union_half_area() in the same order (no FMA), and
+    /// its clamp of NaN and overflow to FLT_MAX.
+    [[gnu::always_inline]] __m256 distances(const __m256 (&q)[6], int v) const {
+        __m256 d[3];
+        for (int k = 0; k < 3; ++k)
+            d[k] = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_load_ps(col[k + 3] + 8 * v), q[k + 3]),
+                                               _mm256_min_ps(_mm256_load_ps(col[k] + 8 * v), q[k])),
+                                 scale);
+        const __m256 area = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[1]), _mm256_mul_ps(d[1], d[2])),
+                                          _mm256_mul_ps(d[2], d[0]));
+        return _mm256_min_ps(area, _mm256_set1_ps(FLT_MAX));
+    }
+
     /// d(i, j) for every lane j of the first kUsed registers (slots [0, 8
     /// kUsed) hold every live one) into `row`: +inf where j == i, FLT_MAX
     /// where j >= live (a retired lane's far box: no live slot's nearest is
@@ -108,20 +127,13 @@ template <int kVectors> struct SmallCombine {
     /// its value.
     template <int kUsed> uint32_t nearest_in(uint32_t i, float &best) {
         __m256 q[6];
-        for (int k = 0; k < 6; ++k) q[k] = _mm256_broadcast_ss(&col[k][i]);
-        const __m256 inf = _mm256_set1_ps(INFINITY), fmax = _mm256_set1_ps(FLT_MAX);
+        query(i, q);
+        const __m256 inf = _mm256_set1_ps(INFINITY);
         const __m256i self = _mm256_set1_epi32(int(i));
         __m256 m = inf;
         __m256 r[kUsed];
         for (int v = 0; v < kUsed; ++v) {
-            __m256 d[3];
-            for (int k = 0; k < 3; ++k)
-                d[k] = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_load_ps(col[k + 3] + 8 * v), q[k + 3]),
-                                                   _mm256_min_ps(_mm256_load_ps(col[k] + 8 * v), q[k])),
-                                     scale);
-            __m256 area = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[1]), _mm256_mul_ps(d[1], d[2])),
-                                        _mm256_mul_ps(d[2], d[0]));
-            area = _mm256_min_ps(area, fmax); // NaN and overflow: FLT_MAX, as the scalar clamp
+            const __m256 area = distances(q, v);
             const __m256i lane = _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
             r[v] = _mm256_blendv_ps(area, inf, _mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, self)));
             _mm256_store_ps(row + 8 * v, r[v]);
@@ -149,17 +161,10 @@ template <int kVectors> struct SmallCombine {
         }
         for (uint32_t i = 0; i < count; ++i) {
             __m256 q[6];
-            for (int k = 0; k < 6; ++k) q[k] = _mm256_broadcast_ss(&col[k][i]);
+            query(i, q);
             const __m256i self = _mm256_set1_epi32(int(i));
             for (int v = 0; v < kUsed; ++v) {
-                __m256 d[3];
-                for (int k = 0; k < 3; ++k)
-                    d[k] = _mm256_mul_ps(_mm256_sub_ps(_mm256_max_ps(_mm256_load_ps(col[k + 3] + 8 * v), q[k + 3]),
-                                                       _mm256_min_ps(_mm256_load_ps(col[k] + 8 * v), q[k])),
-                                         scale);
-                __m256 area = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[1]), _mm256_mul_ps(d[1], d[2])),
-                                            _mm256_mul_ps(d[2], d[0]));
-                area = _mm256_min_ps(area, fmax); // NaN and overflow: FLT_MAX, as the scalar clamp
+                const __m256 area = distances(q, v);
                 const __m256i lane =
                     _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
                 const __m256 nearer = _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, self)),
