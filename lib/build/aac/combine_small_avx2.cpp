@@ -65,7 +65,7 @@ template <int kVectors> struct SmallCombine {
     static uint32_t padded(uint32_t count) { return 8 * uint32_t(registers(count)); }
 
     /// Registers that hold slots [0, live): the loops below cover only those
-    /// (lanes past live are +inf or dead), so a combine's rows shrink with its
+    /// (lanes past live are retired), so a combine's rows shrink with its
     /// live count instead of spanning all kVectors registers (docs/PERFORMANCE.md, change 110).
     static int registers(uint32_t live) { return live <= 8 ? 1 : int((live + 7) / 8); }
     static constexpr int cap(int n) { return n < kVectors ? n : kVectors; }
@@ -99,6 +99,11 @@ template <int kVectors> struct SmallCombine {
         uint32_t a, b, last;
         template <int K> uint32_t run() const { return s.template after_merge_in<K>(a, b, last); }
     };
+
+    /// The slots of register v: 8 v .. 8 v + 7.
+    static __m256i lane_index(int v) {
+        return _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
+    }
 
     /// Slot i's box, each coordinate in all lanes of a register.
     [[gnu::always_inline]] void query(uint32_t i, __m256 (&q)[6]) const {
@@ -134,7 +139,7 @@ template <int kVectors> struct SmallCombine {
         __m256 r[kUsed];
         for (int v = 0; v < kUsed; ++v) {
             const __m256 area = distances(q, v);
-            const __m256i lane = _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
+            const __m256i lane = lane_index(v);
             r[v] = _mm256_blendv_ps(area, inf, _mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, self)));
             _mm256_store_ps(row + 8 * v, r[v]);
             m = _mm256_min_ps(m, r[v]);
@@ -165,8 +170,7 @@ template <int kVectors> struct SmallCombine {
             const __m256i self = _mm256_set1_epi32(int(i));
             for (int v = 0; v < kUsed; ++v) {
                 const __m256 area = distances(q, v);
-                const __m256i lane =
-                    _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
+                const __m256i lane = lane_index(v);
                 const __m256 nearer = _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, self)),
                                                        _mm256_cmp_ps(area, best[v], _CMP_LT_OQ));
                 best[v] = _mm256_blendv_ps(best[v], area, nearer);
@@ -175,7 +179,7 @@ template <int kVectors> struct SmallCombine {
         }
         const __m256i end = _mm256_set1_epi32(int(count));
         for (int v = 0; v < kUsed; ++v) { // lanes past count: as retire() leaves them
-            const __m256i lane = _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(8 * v));
+            const __m256i lane = lane_index(v);
             const __m256i in = _mm256_cmpgt_epi32(end, lane);
             _mm256_store_ps(nd + 8 * v, _mm256_blendv_ps(fmax, best[v], _mm256_castsi256_ps(in)));
             _mm256_store_si256(reinterpret_cast<__m256i *>(nn + 8 * v),
@@ -209,10 +213,6 @@ template <int kVectors> struct SmallCombine {
         return first_equal<kUsed>(r, m, ignored);
     }
 
-    /// After merging a and b (a < b) into slot a and moving slot `last` to b,
-    /// with `row` = d(a, .): the slots whose nearest neighbour was a or b search
-    /// again; the others follow a partner moved from last to b and take a when
-    /// it is closer (or as close with a lower slot). The scalar loop's rules.
     /// The greedy loop's step after a merge (combine_small_loop.inl), all
     /// over the registers of `live` slots, chosen once.
     uint32_t after_merge(uint32_t a, uint32_t b, uint32_t last, uint32_t live) {
@@ -228,6 +228,10 @@ template <int kVectors> struct SmallCombine {
         return closest_pair_in<kUsed>();
     }
 
+    /// After merging a and b (a < b) into slot a and moving slot `last` to b,
+    /// with `row` = d(a, .): the slots whose nearest neighbour was a or b search
+    /// again; the others follow a partner moved from last to b and take a when
+    /// it is closer (or as close with a lower slot). The scalar loop's rules.
     template <int kUsed> void update_in(uint32_t a, uint32_t b, uint32_t last) {
         const __m256i va = _mm256_set1_epi32(int(a)), vb = _mm256_set1_epi32(int(b)),
                       vlast = _mm256_set1_epi32(int(last));
@@ -295,7 +299,7 @@ inline void corner_columns4(const Box *const box[4], __m128 (&c)[6]) {
     __m128 r[4], y[4];
     for (int k = 0; k < 4; ++k) {
         r[k] = _mm_loadu_ps(box[k]->lo);
-        y[k] = _mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double *>(box[k]->hi + 1)));
+        y[k] = _mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i *>(box[k]->hi + 1)));
     }
     const __m128 t0 = _mm_unpacklo_ps(r[0], r[1]), t1 = _mm_unpacklo_ps(r[2], r[3]);
     const __m128 t2 = _mm_unpackhi_ps(r[0], r[1]), t3 = _mm_unpackhi_ps(r[2], r[3]);
