@@ -115,9 +115,24 @@ private:
             Node &node = nodes[it.pos];
             node.box = boxes[it.id];
             node.first = it.prim;
-            node.count = prims(it.id);
+            // The leaf's primitives, left to right. One primitive, or an
+            // inner node over two (most leaves), without the gather stack
+            // (docs/PERFORMANCE.md, change 143).
             uint32_t slot = it.prim;
-            gather[gathered++] = it.id;
+            if (it.id < n) {
+                node.count = 1;
+                prim_out[slot] = leaf_prims[it.id];
+                continue;
+            }
+            node.count = counts[it.id - n].prims;
+            const uint32_t l = children[2 * size_t(it.id - n)], r = children[2 * size_t(it.id - n) + 1];
+            if (l < n && r < n) {
+                prim_out[slot] = leaf_prims[l];
+                prim_out[slot + 1] = leaf_prims[r];
+                continue;
+            }
+            gather[gathered++] = r;
+            gather[gathered++] = l;
             while (gathered != 0) {
                 const uint32_t g = gather[--gathered];
                 if (g < n) {

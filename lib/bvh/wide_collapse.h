@@ -39,14 +39,13 @@ int open_largest_children(const Node *nodes, uint32_t root, const IsLeaf &is_lea
     join(m++, nodes[root].first);
     join(m++, nodes[root].first + 1);
     while (m < Width) {
+        // Leaves count as area -1: never opened, and no branch on leafness.
         int open = -1;
         float open_area = -1.0f;
         for (int k = 0; k < m; ++k) {
-            if (leaf[k]) continue;
-            if (area[k] > open_area) {
-                open = k;
-                open_area = area[k];
-            }
+            const float a = leaf[k] ? -1.0f : area[k];
+            open = a > open_area ? k : open;
+            open_area = a > open_area ? a : open_area;
         }
         if (open < 0) break;
         const uint32_t first = nodes[kids[open]].first;
