@@ -16,6 +16,7 @@ extern "C" {
 #include <vector>
 
 #include "bvh/packet_leaf_sweep.h"
+#include "bvh/wide8_bvh.h"
 #include "bvh_object.h"
 #include "core/scheduler.h"
 #include "random_soup.h"
@@ -83,6 +84,37 @@ void test_split_sweep_matches_one_loop(void **) {
     assert_true(packet_subtrees > 0); // the small-subtree rule was exercised
 }
 
+/// Leaves of more primitives than a packet leaf holds (max leaf size 32, and
+/// a low intersection cost so that the flattening makes them): each stays a
+/// leaf of its own, and no subtree of more than kPacketLeaf primitives
+/// becomes one packet leaf above it. The sweep once gave such a leaf an
+/// infinite cost, which made every ancestor "cheaper as one leaf" (infinity
+/// against infinity) and the whole tree a single leaf of packets.
+void test_big_leaves_stay_apart(void **) {
+    aacbvh::Scheduler scheduler(2);
+    const std::vector<float> soup = random_soup(6000, 11);
+    for (aacbvh_builder builder : {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_BINNED_SAH}) {
+        aacbvh::BvhObject object(scheduler);
+        aacbvh_test::set_soup(object, soup);
+        object.set_param_int(AACBVH_PARAM_BUILDER, builder);
+        object.set_param_int(AACBVH_PARAM_MAX_LEAF_SIZE, 32);
+        object.set_param_float(AACBVH_PARAM_INTERSECTION_COST, 0.02);
+        object.build();
+        const aacbvh::Bvh &bvh = object.binary_tree();
+        check_tree(bvh, "leaves of up to 32");
+        aacbvh::Scheduler one(1);
+        const aacbvh::PacketLeafSweep sweep(bvh, one);
+        size_t big_leaves = 0;
+        for (uint32_t i = 0; i < bvh.nodes.size(); ++i) {
+            big_leaves += bvh.nodes[i].is_leaf() && bvh.nodes[i].count > aacbvh::Wide8Bvh::kPacketLeaf;
+            if (!bvh.nodes[i].is_leaf() && sweep.packet_leaf[i] && sweep.range_count[i] > aacbvh::Wide8Bvh::kPacketLeaf)
+                fail_msg("builder %d: inner node %u over %u primitives became one packet leaf", int(builder), i,
+                         sweep.range_count[i]);
+        }
+        assert_true(big_leaves > 0); // the case is exercised
+    }
+}
+
 void test_one_leaf_tree(void **) {
     aacbvh::Scheduler scheduler(1);
     const std::vector<float> soup = random_soup(1, 3);
@@ -97,6 +129,7 @@ void test_one_leaf_tree(void **) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_split_sweep_matches_one_loop),
+        cmocka_unit_test(test_big_leaves_stay_apart),
         cmocka_unit_test(test_one_leaf_tree),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);

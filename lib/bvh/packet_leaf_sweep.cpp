@@ -47,7 +47,12 @@ void PacketLeafSweep::visit(uint32_t i) {
     if (b.is_leaf()) {
         range_first[i] = b.first;
         range_count[i] = b.count;
-        cost_[i] = b.count <= Wide8Bvh::kPacketLeaf ? area * kPacketCost * float(packets_for(b.count)) : INFINITY;
+        // A binary leaf is a leaf of the wide tree at any size: its packets
+        // are tested whole, so its cost is theirs. (An infinite cost for a
+        // leaf of more than kPacketLeaf primitives once made every ancestor
+        // "cheaper as a leaf", infinity against infinity, and the whole tree
+        // one packet leaf: docs/PERFORMANCE.md, change 145.)
+        cost_[i] = area * kPacketCost * float(packets_for(b.count));
         packet_leaf[i] = 1;
         return;
     }
