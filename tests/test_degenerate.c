@@ -238,6 +238,91 @@ static void test_zero_primitives(void **state) {
     check_scene("vertices, no triangles", &m, 50);
 }
 
+/* SAH of the subtree under `root`, normalised by its own box's area (the
+ * formula of aacbvh_stats: traversal cost 1, intersection cost 1). */
+static double subtree_sah(const ts_tree *t, uint32_t root) {
+    double sum = 0.0;
+    uint32_t stack[128];
+    size_t top = 0;
+    stack[top++] = root;
+    while (top > 0) {
+        const aacbvh_node *n = &t->nodes[stack[--top]];
+        const double dx = (double)n->upper[0] - n->lower[0], dy = (double)n->upper[1] - n->lower[1],
+                     dz = (double)n->upper[2] - n->lower[2];
+        const double area = dx * dy + dy * dz + dz * dx;
+        if (n->count > 0) {
+            sum += area * n->count;
+        } else {
+            sum += area;
+            assert_true(top + 2 <= sizeof stack / sizeof stack[0]);
+            stack[top++] = n->first;
+            stack[top++] = n->first + 1;
+        }
+    }
+    const aacbvh_node *r = &t->nodes[root];
+    const double dx = (double)r->upper[0] - r->lower[0], dy = (double)r->upper[1] - r->lower[1],
+                 dz = (double)r->upper[2] - r->lower[2];
+    return sum / (dx * dy + dy * dz + dz * dx);
+}
+
+/* A cluster of small triangles with one triangle very far away (1e30): the
+ * scene's Morton grid puts the whole cluster in one cell and its clustering
+ * distances, scaled by the scene's extent, underflow to 0. The Morton
+ * presets' trees over the cluster must still be about as good as without
+ * the outlier: AAC once split such a range in input order and merged across
+ * it, and traced that scene about 600 times slower than a SAH tree. */
+static void test_far_outlier(void **state) {
+    (void)state;
+    enum { N = 6000 };
+    ts_rng rng;
+    ts_rng_seed(&rng, 77);
+    float *v = malloc(9 * (size_t)(N + 1) * sizeof(float));
+    assert_non_null(v);
+    for (size_t i = 0; i < N; ++i) {
+        float c[3];
+        for (int k = 0; k < 3; ++k) c[k] = ts_rng_range(&rng, 0.0f, 1.0f);
+        for (int j = 0; j < 3; ++j)
+            for (int k = 0; k < 3; ++k) v[9 * i + 3 * j + k] = c[k] + ts_rng_range(&rng, -0.01f, 0.01f);
+    }
+    const float far[9] = {1e30f, 0, 0, 1e30f, 1, 0, 1e30f, 0, 1};
+    memcpy(&v[9 * (size_t)N], far, sizeof far);
+    /* The presets; the paper's AAC, which merges all of the root's clusters
+     * greedily with no split first, still merges the cluster's top clusters
+     * at distances that underflow (docs/PERFORMANCE.md, change 146). */
+    const aacbvh_builder morton_builders[] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_AAC_FAST};
+    for (size_t b = 0; b < sizeof morton_builders / sizeof morton_builders[0]; ++b) {
+        double sah[2];
+        for (int with_outlier = 0; with_outlier < 2; ++with_outlier) {
+            aacbvh_context *ctx;
+            aacbvh_bvh *bvh;
+            ts_create(1, &ctx, &bvh);
+            assert_int_equal(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, morton_builders[b]), AACBVH_OK);
+            assert_int_equal(aacbvh_bvh_set_triangles(bvh, v, 3 * (size_t)(N + with_outlier), 12, NULL,
+                                                      (size_t)(N + with_outlier)),
+                             AACBVH_OK);
+            assert_int_equal(aacbvh_bvh_build(bvh), AACBVH_OK);
+            ts_tree t;
+            assert_int_equal(ts_tree_fetch(bvh, &t), AACBVH_OK);
+            /* The cluster's subtree: the root without the outlier; with it,
+             * the root's child whose box stays near [0, 1]^3. */
+            uint32_t root = 0;
+            if (with_outlier) {
+                assert_true(t.nodes[0].count == 0);
+                root = t.nodes[t.nodes[0].first].upper[0] < 10.0f ? t.nodes[0].first : t.nodes[0].first + 1;
+                assert_true(t.nodes[root].upper[0] < 10.0f);
+            }
+            sah[with_outlier] = subtree_sah(&t, root);
+            ts_tree_free(&t);
+            aacbvh_bvh_destroy(bvh);
+            aacbvh_context_destroy(ctx);
+        }
+        if (!(sah[1] <= 1.1 * sah[0]))
+            fail_msg("%s: the cluster's SAH is %.2f with a far outlier, %.2f without", aacbvh_builder_name(morton_builders[b]),
+                     sah[1], sah[0]);
+    }
+    free(v);
+}
+
 /* Found by the fuzzer: two triangles whose x extent overflows float before
  * any scaling (-2.2e38 .. 2.9e38), so every clustering distance was inf; AAC
  * then paired a cluster with itself and dropped a primitive while reporting
@@ -274,6 +359,7 @@ int main(void) {
         cmocka_unit_test(test_full_float_range),
         cmocka_unit_test(test_overflowing_areas),
         cmocka_unit_test(test_extent_beyond_float),
+        cmocka_unit_test(test_far_outlier),
         cmocka_unit_test(test_one_and_two_primitives),
         cmocka_unit_test(test_zero_primitives),
     };

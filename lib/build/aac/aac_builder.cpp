@@ -36,11 +36,14 @@ namespace {
 
 /// Ranges at least this long are split into two parallel tasks.
 constexpr uint32_t kParallelGrain = 1u << 12;
+/// Ranges at least this long whose Morton codes are all equal get codes of
+/// their own (AacRecursion::refine_codes()); shorter ones split in the middle.
+constexpr uint32_t kRefineFrom = 64;
 
 class AacRecursion {
 public:
     AacRecursion(const AacConfig &config, const FlattenRule &rule, BuildContext &ctx, BinaryTree &tree,
-                 SubtreeChoices &choices, const uint64_t *codes, float scale)
+                 SubtreeChoices &choices, uint64_t *codes, float scale)
         : config_(config), rule_(rule), ctx_(ctx), tree_(tree), choices_(choices.table()), codes_(codes), scale_(scale),
           n_(tree.leaf_count()), clusters_(n_), free_ids_(n_), scratch_(MemoryMeter::current()) {
         // f(n) of the many small nodes comes from a table instead of pow().
@@ -49,14 +52,15 @@ public:
     }
 
     void run() {
-        build(0, n_, true);
+        build(0, n_, nullptr, true);
         tree_.root = clusters_[0];
     }
 
 private:
     /// Builds range [b, e); returns how many clusters it leaves in clusters_[b, b + count).
-    /// The root range combines down to one cluster.
-    uint32_t build(uint32_t b, uint32_t e, bool root = false) {
+    /// The root range combines down to one cluster. `local_scale` is a refined
+    /// range's own distance scale (refine_codes()); null: the scene's.
+    uint32_t build(uint32_t b, uint32_t e, const float *local_scale, bool root = false) {
         const uint32_t n = e - b;
         if (n < config_.delta) {
             for (uint32_t i = 0; i < n; ++i) {
@@ -65,17 +69,21 @@ private:
             }
             const uint32_t t = root ? 1 : target(config_.delta);
             if (n <= t) return n; // nothing to merge (combine_clusters' own first test, without the call)
-            return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n, t, scale_, rule_, choices_, scratch_, ctx_);
+            return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n, t, local_scale ? *local_scale : scale_, rule_,
+                                    choices_, scratch_, ctx_);
         }
         if (n >= 256) ctx_.poll();
+        float refined_scale;
+        if (n >= kRefineFrom && codes_[b] == codes_[e - 1] && refine_codes(b, e, refined_scale))
+            local_scale = &refined_scale;
         const uint32_t m = split_point(b, e);
         uint32_t left = 0, right = 0;
         if (n >= kParallelGrain) {
-            ctx_.scheduler().fork_join([&] { left = build(b, m); }, [&] { right = build(m, e); });
+            ctx_.scheduler().fork_join([&] { left = build(b, m, local_scale); }, [&] { right = build(m, e, local_scale); });
             ctx_.check_cancelled();
         } else {
-            left = build(b, m);
-            right = build(m, e);
+            left = build(b, m, local_scale);
+            right = build(m, e, local_scale);
         }
         // The right half's clusters and free ids move next to the left half's.
         std::copy(&clusters_[m], &clusters_[m] + right, &clusters_[b + left]);
@@ -84,8 +92,8 @@ private:
             clusters_[b] = split_root(&clusters_[b], &free_ids_[b], left + right, config_.root_split_levels);
             return 1;
         }
-        return combine_clusters(tree_, &clusters_[b], &free_ids_[b], left + right, root ? 1 : target(n), scale_, rule_,
-                                choices_, scratch_, ctx_);
+        return combine_clusters(tree_, &clusters_[b], &free_ids_[b], left + right, root ? 1 : target(n),
+                                local_scale ? *local_scale : scale_, rule_, choices_, scratch_, ctx_);
     }
 
     SubtreeChoice choice(uint32_t id) const { return id < n_ ? rule_.leaf(tree_.boxes[id]) : choices_.get(id - n_); }
@@ -96,7 +104,7 @@ private:
     /// free[0, count); returns its root and leaves the unused free id in free[0].
     uint32_t split_root(uint32_t *ids, uint32_t *free, uint32_t count, uint32_t levels) {
         if (levels == 0 || count <= 2) {
-            combine_clusters(tree_, ids, free, count, 1, scale_, rule_, choices_, scratch_, ctx_);
+            combine_clusters(tree_, ids, free, count, 1, side_scale(ids, count), rule_, choices_, scratch_, ctx_);
             return ids[0];
         }
         const uint32_t m = sah_partition(tree_, choices_, ids, count);
@@ -112,6 +120,19 @@ private:
         return node;
     }
 
+    /// The distance scale for merging clusters ids[0, count) below the root
+    /// split: the scene's, unless their union is more than 2^20 times
+    /// smaller than the scene (the far side of a split from an outlier, as
+    /// in refine_codes()): then its own, so that their distances do not
+    /// underflow. The scene's everywhere else, so ordinary scenes build the
+    /// same trees.
+    float side_scale(const uint32_t *ids, uint32_t count) const {
+        Box bounds = Box::empty();
+        for (uint32_t i = 0; i < count; ++i) bounds.extend(tree_.boxes[ids[i]]);
+        const float own = distance_scale(bounds);
+        return own > scale_ * 0x1p20f ? own : scale_;
+    }
+
     /// The radix-tree split: first index whose code has the highest differing bit set.
     uint32_t split_point(uint32_t b, uint32_t e) const {
         const uint64_t first = codes_[b], last = codes_[e - 1];
@@ -120,6 +141,51 @@ private:
         const uint64_t mask = uint64_t(1) << bit;
         const uint64_t *pos = std::partition_point(codes_ + b, codes_ + e, [mask](uint64_t c) { return !(c & mask); });
         return uint32_t(pos - codes_);
+    }
+
+    /// Primitives whose centroids share one cell of the scene's grid (a cluster
+    /// of small triangles far from the rest of the scene: one triangle at
+    /// 1e30 puts 100 K others in [0, 1]^2 in one cell) would be split by
+    /// position alone, in input order, and clustered across space, with
+    /// distances scaled by the scene's extent that underflow to 0: such a
+    /// scene traced up to thousands of times slower than a SAH tree
+    /// (docs/PERFORMANCE.md, change 146). Instead the range gets codes on a
+    /// grid over its own centroids, its leaves (boxes, primitive ids, codes)
+    /// are sorted by them, ties in their present order, and its clustering
+    /// distances are scaled by its own extent (`scale`). Nothing in the range
+    /// is built yet, and ranges are disjoint, so tasks never meet here. False
+    /// (and nothing done) when the centroids are all one point: no grid
+    /// separates them.
+    [[gnu::noinline, gnu::cold]] bool refine_codes(uint32_t b, uint32_t e, float &scale) {
+        const uint32_t n = e - b;
+        Box bounds = Box::empty(), extent = Box::empty();
+        for (uint32_t i = b; i < e; ++i) {
+            const Box &box = tree_.boxes[i];
+            const float c[3] = {box.centroid(0), box.centroid(1), box.centroid(2)};
+            bounds.extend(c);
+            extent.extend(box);
+        }
+        if (!(bounds.hi[0] > bounds.lo[0] || bounds.hi[1] > bounds.lo[1] || bounds.hi[2] > bounds.lo[2])) return false;
+        scale = distance_scale(extent);
+        const MortonQuantizer grid(bounds);
+        Array<uint64_t> keyed(n); // code, then position: a strict order
+        Array<uint32_t> order(n);
+        for (uint32_t i = 0; i < n; ++i) keyed[i] = grid.centroid_code(tree_.boxes[b + i]);
+        for (uint32_t i = 0; i < n; ++i) order[i] = i;
+        std::sort(order.begin(), order.end(),
+                  [&](uint32_t x, uint32_t y) { return keyed[x] < keyed[y] || (keyed[x] == keyed[y] && x < y); });
+        Array<Box> boxes(n);
+        Array<uint32_t> prims(n);
+        for (uint32_t i = 0; i < n; ++i) {
+            boxes[i] = tree_.boxes[b + order[i]];
+            prims[i] = tree_.prim_ids[b + order[i]];
+        }
+        for (uint32_t i = 0; i < n; ++i) {
+            tree_.boxes[b + i] = boxes[i];
+            tree_.prim_ids[b + i] = prims[i];
+            codes_[b + i] = keyed[order[i]];
+        }
+        return true;
     }
 
     const AacConfig &config_;
@@ -132,7 +198,7 @@ private:
     }
 
     static constexpr uint32_t kTargetTableSize = 4096;
-    const uint64_t *codes_;
+    uint64_t *codes_; ///< refine_codes() rewrites a range's
     float scale_;
     uint32_t n_;
     Array<uint32_t> clusters_;
