@@ -270,7 +270,8 @@ static double subtree_sah(const ts_tree *t, uint32_t root) {
  * distances, scaled by the scene's extent, underflow to 0. The Morton
  * presets' trees over the cluster must still be about as good as without
  * the outlier: AAC once split such a range in input order and merged across
- * it, and traced that scene about 600 times slower than a SAH tree. */
+ * it, and traced such a scene (100 K triangles) about 2,700 times slower than
+ * a SAH tree. */
 static void test_far_outlier(void **state) {
     (void)state;
     enum { N = 6000 };
