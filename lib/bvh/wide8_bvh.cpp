@@ -124,7 +124,8 @@ public:
         // A task's piece sized ahead from its primitives (about 0.04 wide
         // nodes and 0.3 packets a primitive on the shared scenes), so that
         // its arrays do not grow by copies in fresh heap pages
-        // (docs/PERFORMANCE.md, change 144); more simply grows.
+        // (docs/PERFORMANCE.md, change 144); a piece that needs more grows
+        // as before.
         if (!tasks && sweep_ && sweep_->range_count[root] != kNoRange) {
             const size_t prims = sweep_->range_count[root];
             out.sources.reserve(8 * (prims / 16 + 1));
