@@ -267,11 +267,12 @@ static double subtree_sah(const ts_tree *t, uint32_t root) {
 
 /* A cluster of small triangles with one triangle very far away (1e30): the
  * scene's Morton grid puts the whole cluster in one cell and its clustering
- * distances, scaled by the scene's extent, underflow to 0. The Morton
+ * distances, scaled by the scene's extent, underflow to 0. The AAC
  * presets' trees over the cluster must still be about as good as without
- * the outlier: AAC once split such a range in input order and merged across
- * it, and traced such a scene (100 K triangles) about 2,700 times slower than
- * a SAH tree. */
+ * the outlier, PLOC's within 3 times: AAC once split such a range in input
+ * order and merged across it, and traced such a scene (100 K triangles)
+ * about 2,700 times slower than a SAH tree; PLOC kept such a run in input
+ * order (SAH 42 times the tree without the outlier). */
 static void test_far_outlier(void **state) {
     (void)state;
     enum { N = 6000 };
@@ -287,10 +288,15 @@ static void test_far_outlier(void **state) {
     }
     const float far[9] = {1e30f, 0, 0, 1e30f, 1, 0, 1e30f, 0, 1};
     memcpy(&v[9 * (size_t)N], far, sizeof far);
-    /* The presets; the paper's AAC, which merges all of the root's clusters
-     * greedily with no split first, still merges the cluster's top clusters
-     * at distances that underflow (docs/PERFORMANCE.md, change 146). */
-    const aacbvh_builder morton_builders[] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_AAC_FAST};
+    /* The presets and PLOC; the paper's AAC, which merges all of the root's
+     * clusters greedily with no split first, still merges the cluster's top
+     * clusters at distances that underflow (docs/PERFORMANCE.md, change 146). */
+    const aacbvh_builder morton_builders[] = {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_AAC_FAST, AACBVH_BUILDER_PLOC};
+    /* PLOC gets the Morton order back but not the distances: they still
+     * underflow across the cluster, so its merges there follow the order
+     * alone (2.2 times the SAH without the outlier; 0.2 ms against 230 ms
+     * for the probe's 1,000 rays, docs/PERFORMANCE.md change 147). */
+    const double limit[] = {1.1, 1.1, 3.0};
     for (size_t b = 0; b < sizeof morton_builders / sizeof morton_builders[0]; ++b) {
         double sah[2];
         for (int with_outlier = 0; with_outlier < 2; ++with_outlier) {
@@ -317,7 +323,7 @@ static void test_far_outlier(void **state) {
             aacbvh_bvh_destroy(bvh);
             aacbvh_context_destroy(ctx);
         }
-        if (!(sah[1] <= 1.1 * sah[0]))
+        if (!(sah[1] <= limit[b] * sah[0]))
             fail_msg("%s: the cluster's SAH is %.2f with a far outlier, %.2f without", aacbvh_builder_name(morton_builders[b]),
                      sah[1], sah[0]);
     }

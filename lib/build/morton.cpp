@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <vector>
 
 #include "build/radix_sort.h"
 
@@ -73,6 +74,59 @@ void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<ui
     });
     codes.swap(low_index);
     order.swap(high);
+}
+
+namespace {
+
+/// refine_equal_code_runs() for one run [b, e) of equal codes; false when its
+/// centroids are all one point.
+bool refine_run(const BuildInput &input, Array<uint64_t> &codes, Array<uint32_t> &order, size_t b, size_t e) {
+    Box bounds = Box::empty();
+    for (size_t i = b; i < e; ++i) {
+        const Box &box = input.boxes[order[i]];
+        const float c[3] = {box.centroid(0), box.centroid(1), box.centroid(2)};
+        bounds.extend(c);
+    }
+    if (!(bounds.hi[0] > bounds.lo[0] || bounds.hi[1] > bounds.lo[1] || bounds.hi[2] > bounds.lo[2])) return false;
+    const MortonQuantizer grid(bounds);
+    const size_t n = e - b;
+    Array<uint64_t> keyed(n); // code << 32 | position: one strict key
+    for (size_t i = 0; i < n; ++i) keyed[i] = grid.centroid_code(input.boxes[order[b + i]]);
+    Array<uint32_t> rank(n);
+    for (size_t i = 0; i < n; ++i) rank[i] = uint32_t(i);
+    std::sort(rank.begin(), rank.end(),
+              [&](uint32_t x, uint32_t y) { return keyed[x] < keyed[y] || (keyed[x] == keyed[y] && x < y); });
+    Array<uint32_t> moved(n);
+    for (size_t i = 0; i < n; ++i) moved[i] = order[b + rank[i]];
+    for (size_t i = 0; i < n; ++i) {
+        order[b + i] = moved[i];
+        codes[b + i] = keyed[rank[i]];
+    }
+    return true;
+}
+
+} // namespace
+
+bool refine_equal_code_runs(const BuildInput &input, Array<uint64_t> &codes, Array<uint32_t> &order, size_t min_run) {
+    struct Range {
+        size_t b, e;
+    };
+    std::vector<Range> work{{0, codes.size()}};
+    bool changed = false;
+    while (!work.empty()) {
+        const Range r = work.back();
+        work.pop_back();
+        for (size_t i = r.b; i < r.e;) {
+            size_t j = i + 1;
+            while (j < r.e && codes[j] == codes[i]) ++j;
+            if (j - i >= min_run && refine_run(input, codes, order, i, j)) {
+                work.push_back(Range{i, j});
+                changed = true;
+            }
+            i = j;
+        }
+    }
+    return changed;
 }
 
 } // namespace aacbvh

@@ -123,4 +123,14 @@ private:
 void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<uint64_t> &codes,
                          Array<uint32_t> &order);
 
+/// After sort_by_morton_code(): each run of at least `min_run` equal codes
+/// whose centroids are not all one point (a cluster that shares one cell of
+/// the scene's grid, such as small primitives far from an outlier) gets codes
+/// on a grid over its own centroids and is sorted by them, ties keeping their
+/// order; runs it leaves equal are refined again. Returns whether it changed
+/// anything. For builders that use the whole order at once (PLOC); AAC
+/// refines inside its recursion instead (build/aac/aac_builder.cpp), where it
+/// also scales its distances per range.
+bool refine_equal_code_runs(const BuildInput &input, Array<uint64_t> &codes, Array<uint32_t> &order, size_t min_run);
+
 } // namespace aacbvh

@@ -29,6 +29,9 @@ namespace {
 
 /// Clusters per parallel chunk.
 constexpr size_t kGrain = 1 << 14;
+/// Runs of equal Morton codes at least this long are sorted again on a grid
+/// of their own (refine_equal_code_runs()), as AAC's ranges are.
+constexpr size_t kRefineFrom = 64;
 
 /// Tie-break between candidate pairs (i, j), i < j, of equal distance and gap.
 inline uint32_t pair_hash(uint32_t i, uint32_t j) {
@@ -55,6 +58,11 @@ void build_ploc(const BuildInput &input, uint32_t radius, BuildContext &ctx, Bin
     {
         Array<uint64_t> codes;
         sort_by_morton_code(input, scheduler, codes, order);
+        // A cluster that shares one cell of the scene's grid (small
+        // primitives far from an outlier) would stay in input order, and the
+        // windows would pair primitives from across it: AAC's fix, for the
+        // whole order (docs/PERFORMANCE.md, change 147).
+        refine_equal_code_runs(input, codes, order, kRefineFrom);
     }
 
     // The current clusters in Morton order: node id and box; next_* is the
