@@ -81,26 +81,16 @@ namespace {
 /// refine_equal_code_runs() for one run [b, e) of equal codes; false when its
 /// centroids are all one point.
 bool refine_run(const BuildInput &input, Array<uint64_t> &codes, Array<uint32_t> &order, size_t b, size_t e) {
-    Box bounds = Box::empty();
-    for (size_t i = b; i < e; ++i) {
-        const Box &box = input.boxes[order[i]];
-        const float c[3] = {box.centroid(0), box.centroid(1), box.centroid(2)};
-        bounds.extend(c);
-    }
-    if (!(bounds.hi[0] > bounds.lo[0] || bounds.hi[1] > bounds.lo[1] || bounds.hi[2] > bounds.lo[2])) return false;
-    const MortonQuantizer grid(bounds);
     const size_t n = e - b;
-    Array<uint64_t> keyed(n); // code << 32 | position: one strict key
-    for (size_t i = 0; i < n; ++i) keyed[i] = grid.centroid_code(input.boxes[order[b + i]]);
-    Array<uint32_t> rank(n);
-    for (size_t i = 0; i < n; ++i) rank[i] = uint32_t(i);
-    std::sort(rank.begin(), rank.end(),
-              [&](uint32_t x, uint32_t y) { return keyed[x] < keyed[y] || (keyed[x] == keyed[y] && x < y); });
+    Array<uint64_t> local;
+    Array<uint32_t> rank;
+    if (!local_morton_order(n, [&](size_t i) -> const Box & { return input.boxes[order[b + i]]; }, local, rank))
+        return false;
     Array<uint32_t> moved(n);
     for (size_t i = 0; i < n; ++i) moved[i] = order[b + rank[i]];
     for (size_t i = 0; i < n; ++i) {
         order[b + i] = moved[i];
-        codes[b + i] = keyed[rank[i]];
+        codes[b + i] = local[rank[i]];
     }
     return true;
 }

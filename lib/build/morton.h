@@ -123,6 +123,33 @@ private:
 void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<uint64_t> &codes,
                          Array<uint32_t> &order);
 
+/// Morton codes of `count` boxes (`box_at(i)`) on a grid over their own
+/// centroids, into `codes[0, count)`, and into `rank` the positions in the
+/// order of those codes (equal codes in position order). False, with
+/// nothing written, when the centroids are all one point: no grid
+/// separates them. For clusters that share one cell of the scene's grid
+/// (refine_equal_code_runs() below; AAC's ranges, build/aac/aac_builder.cpp).
+template <class BoxAt>
+bool local_morton_order(size_t count, const BoxAt &box_at, Array<uint64_t> &codes, Array<uint32_t> &rank) {
+    Box bounds = Box::empty();
+    for (size_t i = 0; i < count; ++i) {
+        const Box &box = box_at(i);
+        const float c[3] = {box.centroid(0), box.centroid(1), box.centroid(2)};
+        bounds.extend(c);
+    }
+    if (!(bounds.hi[0] > bounds.lo[0] || bounds.hi[1] > bounds.lo[1] || bounds.hi[2] > bounds.lo[2])) return false;
+    const MortonQuantizer grid(bounds);
+    codes.resize(count);
+    rank.resize(count);
+    for (size_t i = 0; i < count; ++i) {
+        codes[i] = grid.centroid_code(box_at(i));
+        rank[i] = uint32_t(i);
+    }
+    std::sort(rank.begin(), rank.end(),
+              [&](uint32_t x, uint32_t y) { return codes[x] < codes[y] || (codes[x] == codes[y] && x < y); });
+    return true;
+}
+
 /// After sort_by_morton_code(): each run of at least `min_run` equal codes
 /// whose centroids are not all one point (a cluster that shares one cell of
 /// the scene's grid, such as small primitives far from an outlier) gets codes

@@ -158,33 +158,24 @@ private:
     /// separates them.
     [[gnu::noinline, gnu::cold]] bool refine_codes(uint32_t b, uint32_t e, float &scale) {
         const uint32_t n = e - b;
-        Box bounds = Box::empty(), extent = Box::empty();
-        for (uint32_t i = b; i < e; ++i) {
-            const Box &box = tree_.boxes[i];
-            const float c[3] = {box.centroid(0), box.centroid(1), box.centroid(2)};
-            bounds.extend(c);
-            extent.extend(box);
-        }
-        if (!(bounds.hi[0] > bounds.lo[0] || bounds.hi[1] > bounds.lo[1] || bounds.hi[2] > bounds.lo[2])) return false;
-        scale = distance_scale(extent);
-        const MortonQuantizer grid(bounds);
-        Array<uint64_t> keyed(n); // code, then position: a strict order
-        Array<uint32_t> order(n);
-        for (uint32_t i = 0; i < n; ++i) keyed[i] = grid.centroid_code(tree_.boxes[b + i]);
-        for (uint32_t i = 0; i < n; ++i) order[i] = i;
-        std::sort(order.begin(), order.end(),
-                  [&](uint32_t x, uint32_t y) { return keyed[x] < keyed[y] || (keyed[x] == keyed[y] && x < y); });
+        Array<uint64_t> local;
+        Array<uint32_t> rank;
+        if (!local_morton_order(n, [&](size_t i) -> const Box & { return tree_.boxes[b + i]; }, local, rank))
+            return false;
+        Box extent = Box::empty();
         Array<Box> boxes(n);
         Array<uint32_t> prims(n);
         for (uint32_t i = 0; i < n; ++i) {
-            boxes[i] = tree_.boxes[b + order[i]];
-            prims[i] = tree_.prim_ids[b + order[i]];
+            boxes[i] = tree_.boxes[b + rank[i]];
+            prims[i] = tree_.prim_ids[b + rank[i]];
+            extent.extend(boxes[i]);
         }
         for (uint32_t i = 0; i < n; ++i) {
             tree_.boxes[b + i] = boxes[i];
             tree_.prim_ids[b + i] = prims[i];
-            codes_[b + i] = keyed[order[i]];
+            codes_[b + i] = local[rank[i]];
         }
+        scale = distance_scale(extent);
         return true;
     }
 
