@@ -319,6 +319,24 @@ static void test_far_outlier(void **state) {
                 assert_true(t.nodes[root].upper[0] < 10.0f);
             }
             sah[with_outlier] = subtree_sah(&t, root);
+            if (with_outlier) {
+                /* The same tree on three threads: the cluster's range is
+                 * refined inside a task, beside the outlier's. */
+                aacbvh_context *ctx3;
+                aacbvh_bvh *bvh3;
+                ts_create(3, &ctx3, &bvh3);
+                assert_int_equal(aacbvh_bvh_set_param_int(bvh3, AACBVH_PARAM_BUILDER, morton_builders[b]), AACBVH_OK);
+                assert_int_equal(aacbvh_bvh_set_triangles(bvh3, v, 3 * (size_t)(N + 1), 12, NULL, (size_t)(N + 1)),
+                                 AACBVH_OK);
+                assert_int_equal(aacbvh_bvh_build(bvh3), AACBVH_OK);
+                ts_tree t3;
+                assert_int_equal(ts_tree_fetch(bvh3, &t3), AACBVH_OK);
+                if (!ts_tree_equal(&t, &t3))
+                    fail_msg("%s: the far-outlier tree differs on three threads", aacbvh_builder_name(morton_builders[b]));
+                ts_tree_free(&t3);
+                aacbvh_bvh_destroy(bvh3);
+                aacbvh_context_destroy(ctx3);
+            }
             ts_tree_free(&t);
             aacbvh_bvh_destroy(bvh);
             aacbvh_context_destroy(ctx);
