@@ -265,6 +265,20 @@ static double subtree_sah(const ts_tree *t, uint32_t root) {
     return sum / (dx * dy + dy * dz + dz * dx);
 }
 
+/* Builds `count` triangles of `v` with `builder` on `threads` threads and
+ * reads the tree back. */
+static void build_and_fetch(const float *v, size_t count, aacbvh_builder builder, uint32_t threads, ts_tree *out) {
+    aacbvh_context *ctx;
+    aacbvh_bvh *bvh;
+    ts_create(threads, &ctx, &bvh);
+    assert_int_equal(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, builder), AACBVH_OK);
+    assert_int_equal(aacbvh_bvh_set_triangles(bvh, v, 3 * count, 12, NULL, count), AACBVH_OK);
+    assert_int_equal(aacbvh_bvh_build(bvh), AACBVH_OK);
+    assert_int_equal(ts_tree_fetch(bvh, out), AACBVH_OK);
+    aacbvh_bvh_destroy(bvh);
+    aacbvh_context_destroy(ctx);
+}
+
 /* A cluster of small triangles with one triangle very far away (1e30): the
  * scene's Morton grid puts the whole cluster in one cell and its clustering
  * distances, scaled by the scene's extent, underflow to 0. The AAC
@@ -300,16 +314,8 @@ static void test_far_outlier(void **state) {
     for (size_t b = 0; b < sizeof morton_builders / sizeof morton_builders[0]; ++b) {
         double sah[2];
         for (int with_outlier = 0; with_outlier < 2; ++with_outlier) {
-            aacbvh_context *ctx;
-            aacbvh_bvh *bvh;
-            ts_create(1, &ctx, &bvh);
-            assert_int_equal(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, morton_builders[b]), AACBVH_OK);
-            assert_int_equal(aacbvh_bvh_set_triangles(bvh, v, 3 * (size_t)(N + with_outlier), 12, NULL,
-                                                      (size_t)(N + with_outlier)),
-                             AACBVH_OK);
-            assert_int_equal(aacbvh_bvh_build(bvh), AACBVH_OK);
             ts_tree t;
-            assert_int_equal(ts_tree_fetch(bvh, &t), AACBVH_OK);
+            build_and_fetch(v, (size_t)(N + with_outlier), morton_builders[b], 1, &t);
             /* The cluster's subtree: the root without the outlier; with it,
              * the root's child whose box stays near [0, 1]^3. */
             uint32_t root = 0;
@@ -322,24 +328,13 @@ static void test_far_outlier(void **state) {
             if (with_outlier) {
                 /* The same tree on three threads: the cluster's range is
                  * refined inside a task, beside the outlier's. */
-                aacbvh_context *ctx3;
-                aacbvh_bvh *bvh3;
-                ts_create(3, &ctx3, &bvh3);
-                assert_int_equal(aacbvh_bvh_set_param_int(bvh3, AACBVH_PARAM_BUILDER, morton_builders[b]), AACBVH_OK);
-                assert_int_equal(aacbvh_bvh_set_triangles(bvh3, v, 3 * (size_t)(N + 1), 12, NULL, (size_t)(N + 1)),
-                                 AACBVH_OK);
-                assert_int_equal(aacbvh_bvh_build(bvh3), AACBVH_OK);
                 ts_tree t3;
-                assert_int_equal(ts_tree_fetch(bvh3, &t3), AACBVH_OK);
+                build_and_fetch(v, (size_t)(N + 1), morton_builders[b], 3, &t3);
                 if (!ts_tree_equal(&t, &t3))
                     fail_msg("%s: the far-outlier tree differs on three threads", aacbvh_builder_name(morton_builders[b]));
                 ts_tree_free(&t3);
-                aacbvh_bvh_destroy(bvh3);
-                aacbvh_context_destroy(ctx3);
             }
             ts_tree_free(&t);
-            aacbvh_bvh_destroy(bvh);
-            aacbvh_context_destroy(ctx);
         }
         if (!(sah[1] <= limit[b] * sah[0]))
             fail_msg("%s: the cluster's SAH is %.2f with a far outlier, %.2f without", aacbvh_builder_name(morton_builders[b]),

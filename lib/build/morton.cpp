@@ -97,26 +97,21 @@ bool refine_run(const BuildInput &input, Array<uint64_t> &codes, Array<uint32_t>
 
 } // namespace
 
-bool refine_equal_code_runs(const BuildInput &input, Array<uint64_t> &codes, Array<uint32_t> &order, size_t min_run) {
+void refine_equal_code_runs(const BuildInput &input, Array<uint64_t> &codes, Array<uint32_t> &order, size_t min_run) {
     struct Range {
         size_t b, e;
     };
     std::vector<Range> work{{0, codes.size()}};
-    bool changed = false;
     while (!work.empty()) {
         const Range r = work.back();
         work.pop_back();
         for (size_t i = r.b; i < r.e;) {
             size_t j = i + 1;
             while (j < r.e && codes[j] == codes[i]) ++j;
-            if (j - i >= min_run && refine_run(input, codes, order, i, j)) {
-                work.push_back(Range{i, j});
-                changed = true;
-            }
+            if (j - i >= min_run && refine_run(input, codes, order, i, j)) work.push_back(Range{i, j});
             i = j;
         }
     }
-    return changed;
 }
 
 } // namespace aacbvh

@@ -154,10 +154,9 @@ bool local_morton_order(size_t count, const BoxAt &box_at, Array<uint64_t> &code
 /// whose centroids are not all one point (a cluster that shares one cell of
 /// the scene's grid, such as small primitives far from an outlier) gets codes
 /// on a grid over its own centroids and is sorted by them, ties keeping their
-/// order; runs it leaves equal are refined again. Returns whether it changed
-/// anything. For builders that use the whole order at once (PLOC); AAC
-/// refines inside its recursion instead (build/aac/aac_builder.cpp), where it
-/// also scales its distances per range.
-bool refine_equal_code_runs(const BuildInput &input, Array<uint64_t> &codes, Array<uint32_t> &order, size_t min_run);
+/// order; runs it leaves equal are refined again. For builders that use the
+/// whole order at once (PLOC); AAC refines inside its recursion instead
+/// (build/aac/aac_builder.cpp), where it also scales its distances per range.
+void refine_equal_code_runs(const BuildInput &input, Array<uint64_t> &codes, Array<uint32_t> &order, size_t min_run);
 
 } // namespace aacbvh

@@ -52,15 +52,16 @@ public:
     }
 
     void run() {
-        build(0, n_, nullptr, true);
+        build(0, n_, scale_, true);
         tree_.root = clusters_[0];
     }
 
 private:
     /// Builds range [b, e); returns how many clusters it leaves in clusters_[b, b + count).
-    /// The root range combines down to one cluster. `local_scale` is a refined
-    /// range's own distance scale (refine_codes()); null: the scene's.
-    uint32_t build(uint32_t b, uint32_t e, const float *local_scale, bool root = false) {
+    /// The root range combines down to one cluster. `scale` is the clustering
+    /// distances' (distance_scale()): the scene's, or a refined range's own
+    /// (refine_codes()).
+    uint32_t build(uint32_t b, uint32_t e, float scale, bool root = false) {
         const uint32_t n = e - b;
         if (n < config_.delta) {
             for (uint32_t i = 0; i < n; ++i) {
@@ -69,21 +70,18 @@ private:
             }
             const uint32_t t = root ? 1 : target(config_.delta);
             if (n <= t) return n; // nothing to merge (combine_clusters' own first test, without the call)
-            return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n, t, local_scale ? *local_scale : scale_, rule_,
-                                    choices_, scratch_, ctx_);
+            return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n, t, scale, rule_, choices_, scratch_, ctx_);
         }
         if (n >= 256) ctx_.poll();
-        float refined_scale;
-        if (n >= kRefineFrom && codes_[b] == codes_[e - 1] && refine_codes(b, e, refined_scale))
-            local_scale = &refined_scale;
+        if (n >= kRefineFrom && codes_[b] == codes_[e - 1]) refine_codes(b, e, scale);
         const uint32_t m = split_point(b, e);
         uint32_t left = 0, right = 0;
         if (n >= kParallelGrain) {
-            ctx_.scheduler().fork_join([&] { left = build(b, m, local_scale); }, [&] { right = build(m, e, local_scale); });
+            ctx_.scheduler().fork_join([&] { left = build(b, m, scale); }, [&] { right = build(m, e, scale); });
             ctx_.check_cancelled();
         } else {
-            left = build(b, m, local_scale);
-            right = build(m, e, local_scale);
+            left = build(b, m, scale);
+            right = build(m, e, scale);
         }
         // The right half's clusters and free ids move next to the left half's.
         std::copy(&clusters_[m], &clusters_[m] + right, &clusters_[b + left]);
@@ -92,8 +90,8 @@ private:
             clusters_[b] = split_root(&clusters_[b], &free_ids_[b], left + right, config_.root_split_levels);
             return 1;
         }
-        return combine_clusters(tree_, &clusters_[b], &free_ids_[b], left + right, root ? 1 : target(n),
-                                local_scale ? *local_scale : scale_, rule_, choices_, scratch_, ctx_);
+        return combine_clusters(tree_, &clusters_[b], &free_ids_[b], left + right, root ? 1 : target(n), scale, rule_,
+                                choices_, scratch_, ctx_);
     }
 
     SubtreeChoice choice(uint32_t id) const { return id < n_ ? rule_.leaf(tree_.boxes[id]) : choices_.get(id - n_); }
@@ -152,16 +150,15 @@ private:
     /// (docs/PERFORMANCE.md, change 146). Instead the range gets codes on a
     /// grid over its own centroids, its leaves (boxes, primitive ids, codes)
     /// are sorted by them, ties in their present order, and its clustering
-    /// distances are scaled by its own extent (`scale`). Nothing in the range
-    /// is built yet, and ranges are disjoint, so tasks never meet here. False
-    /// (and nothing done) when the centroids are all one point: no grid
+    /// distances are scaled by its own extent (`scale` is set). Nothing in the
+    /// range is built yet, and ranges are disjoint, so tasks never meet here.
+    /// Nothing is done when the centroids are all one point: no grid
     /// separates them.
-    [[gnu::noinline, gnu::cold]] bool refine_codes(uint32_t b, uint32_t e, float &scale) {
+    [[gnu::noinline, gnu::cold]] void refine_codes(uint32_t b, uint32_t e, float &scale) {
         const uint32_t n = e - b;
         Array<uint64_t> local;
         Array<uint32_t> rank;
-        if (!local_morton_order(n, [&](size_t i) -> const Box & { return tree_.boxes[b + i]; }, local, rank))
-            return false;
+        if (!local_morton_order(n, [&](size_t i) -> const Box & { return tree_.boxes[b + i]; }, local, rank)) return;
         Box extent = Box::empty();
         Array<Box> boxes(n);
         Array<uint32_t> prims(n);
@@ -176,7 +173,6 @@ private:
             codes_[b + i] = local[rank[i]];
         }
         scale = distance_scale(extent);
-        return true;
     }
 
     const AacConfig &config_;
