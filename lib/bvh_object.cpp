@@ -160,6 +160,7 @@ void BvhObject::build() {
     MemoryMeter meter;
     Bvh result;
     Layouts layouts;
+    bool made = false; // the layouts, straight from the builder's tree
     uint64_t invalid_count = 0;
     {
         const MemoryMeter::Scope metered(meter);
@@ -169,7 +170,8 @@ void BvhObject::build() {
         ctx.report(0.1);
 
         if (input.size() > 0) {
-            const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost};
+            const bool straight = straight_to_compact(input.size());
+            const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost, straight};
             BinaryTree tree;
             SubtreeChoices choices;
             const BuilderInfo *builder = find_builder(params.builder);
@@ -181,9 +183,14 @@ void BvhObject::build() {
             if (!decided) choose_subtrees(tree, rule, ctx, choices);
             // AACBVH_PARAM_OPTIMIZE_PASSES: part of the build, its time and its built_sah_cost.
             if (params.optimize_passes > 0) optimize_tree(tree, rule, choices, params.optimize_passes, ctx, 0.8, 0.9);
-            emit_bvh(tree, rule, choices, ctx, result);
+            if (straight) {
+                make_compact_layouts(tree, rule, choices, ctx, result, layouts);
+                made = true;
+            } else {
+                emit_bvh(tree, rule, choices, ctx, result);
+            }
         }
-        make_layouts(result, layouts);
+        if (!made) make_layouts(result, layouts);
     }
     ctx.report(1.0);
 
@@ -216,6 +223,29 @@ void BvhObject::make_layouts(const Bvh &tree, Layouts &out) const {
         out.triangles.resize(9 * tree.prim_ids.size());
         copy_triangles(tree, out.triangles.data());
     }
+}
+
+namespace testing {
+std::atomic<bool> straight_layouts{true};
+} // namespace testing
+
+bool BvhObject::straight_to_compact(size_t primitives) const {
+    return testing::straight_layouts.load(std::memory_order_relaxed) && packets_wanted() && params.max_leaf_size <= CompactTopology::kMaxLeafCount &&
+           primitives < (size_t(1) << 31);
+}
+
+void BvhObject::make_compact_layouts(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices,
+                                     BuildContext &ctx, Bvh &result, Layouts &out) const {
+    Array<uint8_t> shape;
+    emit_shape(tree, rule, choices, ctx, shape, result.prim_ids);
+    const ChosenTree view = chosen_view(tree, choices);
+    Array<uint32_t>().swap(tree.prim_ids); // in result.prim_ids now, in leaf order (the view holds the count)
+    if (!out.topology.adopt(shape, view)) throw Error(AACBVH_ERROR_INTERNAL, "the tree's shape was not adopted");
+    out.wide8.build(view, geometry_, result.prim_ids.data(), scheduler_, [&] {
+        Array<Box>().swap(tree.boxes);
+        Array<uint32_t>().swap(tree.children);
+        SubtreeChoices().swap(choices);
+    });
 }
 
 void BvhObject::install(Layouts &layouts) noexcept {

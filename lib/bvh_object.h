@@ -3,12 +3,14 @@
 // only on success, so a failed build keeps the previous tree.
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <mutex>
 
 #include "aacbvh/aacbvh.h"
+#include "build/flatten.h"
 #include "bvh/bvh.h"
 #include "bvh/bvh_stats.h"
 #include "bvh/compact_topology.h"
@@ -20,6 +22,13 @@
 #include "params.h"
 
 namespace aacbvh {
+
+namespace testing {
+/// Whether builds may make the default layout straight from the builder's
+/// tree (BvhObject::straight_to_compact(); on by default). Tests turn it off
+/// to compare with the layout made from the emitted binary nodes.
+extern std::atomic<bool> straight_layouts;
+} // namespace testing
 
 class BvhObject {
 public:
@@ -84,6 +93,9 @@ public:
     /// (bvh/compact_topology.h): the default 8-wide layout with packets.
     bool compact() const { return !topology_.empty(); }
     const Geometry &geometry() const { return geometry_; }
+    /// The layouts as they are (for tests).
+    const Wide8Bvh &wide8() const { return wide8_; }
+    const CompactTopology &topology() const { return topology_; }
     Scheduler &scheduler() const { return scheduler_; }
 
     void stats(aacbvh_stats &out) const;
@@ -115,6 +127,14 @@ private:
         CompactTopology topology;
     };
     void make_layouts(const Bvh &tree, Layouts &out) const;
+    /// Whether a build of `primitives` makes the default layout (the 8-wide
+    /// tree with packets, the binary tree's shape kept) straight from the
+    /// builder's tree, without the binary nodes (docs/PERFORMANCE.md, 148).
+    bool straight_to_compact(size_t primitives) const;
+    /// That: result gets the primitive indices only (no nodes); the tree and
+    /// the choices are freed as soon as they are read no more.
+    void make_compact_layouts(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, BuildContext &ctx,
+                              Bvh &result, Layouts &out) const;
     void install(Layouts &layouts) noexcept;
     /// Into `out`: the binary nodes from the kept shape, with boxes from the
     /// packets' vertices (those of the last build or refit), united as

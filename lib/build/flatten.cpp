@@ -6,7 +6,7 @@ namespace aacbvh {
 
 void choose_subtrees(const BinaryTree &tree, const FlattenRule &rule, BuildContext &ctx, SubtreeChoices &choices) {
     const uint32_t n = tree.leaf_count();
-    choices.resize(n);
+    choices.resize(n, rule.packets);
     if (n < 2) return;
     for (uint32_t k = 0; k < n; ++k) choices.set_prims(k, 0); // 0 = not decided yet
     auto choice = [&](uint32_t id) { return tree.is_leaf(id) ? rule.leaf(tree.boxes[id]) : choices.get(id - n); };
@@ -27,14 +27,41 @@ void choose_subtrees(const BinaryTree &tree, const FlattenRule &rule, BuildConte
 
 namespace {
 
+/// Writes the emitted layout's binary nodes.
+struct NodeSink {
+    Node *nodes;
+    const Box *boxes;
+    void inner(uint32_t pos, uint32_t id, uint32_t below) const {
+        Node &node = nodes[pos];
+        node.box = boxes[id];
+        node.first = below;
+        node.count = 0;
+    }
+    void leaf(uint32_t pos, uint32_t id, uint32_t slot, uint32_t count) const {
+        Node &node = nodes[pos];
+        node.box = boxes[id];
+        node.first = slot;
+        node.count = count;
+    }
+};
+
+/// Writes the emitted layout's shape only (bvh/compact_topology.h): a
+/// leaf's primitive count (at most CompactTopology::kMaxLeafCount) or 0.
+struct ShapeSink {
+    uint8_t *shape;
+    void inner(uint32_t pos, uint32_t, uint32_t) const { shape[pos] = 0; }
+    void leaf(uint32_t pos, uint32_t, uint32_t, uint32_t count) const { shape[pos] = uint8_t(count); }
+};
+
 /// Lays out one sub-tree. A node at `pos` whose children pair starts at
 /// `below` puts its left child's descendants at below + 2 and its right
 /// child's after them, so positions follow from the leaf counts alone and
 /// large sub-trees can be laid out in parallel with the same result.
-class Emitter {
+template <class Sink> class Emitter {
 public:
-    Emitter(const BinaryTree &tree, const SubtreeChoices &choices, BuildContext &ctx, Bvh &out)
-        : tree_(tree), choices_(choices), ctx_(ctx), out_(out), n_(tree.leaf_count()) {}
+    Emitter(const BinaryTree &tree, const SubtreeChoices &choices, BuildContext &ctx, const Sink &sink,
+            uint32_t *prim_out)
+        : tree_(tree), choices_(choices), ctx_(ctx), sink_(sink), prim_out_(prim_out), n_(tree.leaf_count()) {}
 
     void emit(uint32_t id, uint32_t pos, uint32_t below, uint32_t prim, unsigned depth) {
         // Large sub-trees near the top split into tasks; the rest, and any
@@ -42,7 +69,7 @@ public:
         while (depth < kParallelDepth && !tree_.is_leaf(id) && choices_.leaves(id - n_) > 1 &&
                choices_.prims(id - n_) >= kParallelGrain) {
             const uint32_t l = tree_.left(id), r = tree_.right(id);
-            set_inner(id, pos, below);
+            sink_.inner(pos, id, below);
             const uint32_t left_nodes = 2 * leaves(l) - 1;
             ctx_.scheduler().fork_join(
                 [&] { emit(l, below, below + 2, prim, depth + 1); },
@@ -59,13 +86,6 @@ private:
     uint32_t leaves(uint32_t id) const { return tree_.is_leaf(id) ? 1 : choices_.leaves(id - n_); }
     uint32_t prims(uint32_t id) const { return tree_.is_leaf(id) ? 1 : choices_.prims(id - n_); }
 
-    void set_inner(uint32_t id, uint32_t pos, uint32_t below) {
-        Node &node = out_.nodes[pos];
-        node.box = tree_.boxes[id];
-        node.first = below;
-        node.count = 0;
-    }
-
     /// The loop below keeps the arrays' pointers and its stacks in locals:
     /// through members, every store to a node made the compiler read the
     /// vectors' pointers and sizes again (docs/PERFORMANCE.md row 134).
@@ -76,8 +96,8 @@ private:
         const Box *const boxes = tree_.boxes.data();
         const uint32_t *const leaf_prims = tree_.prim_ids.data();
         const SubtreeCounts *const counts = choices_.counts().data();
-        Node *const nodes = out_.nodes.data();
-        uint32_t *const prim_out = out_.prim_ids.data();
+        const Sink sink = sink_;
+        uint32_t *const prim_out = prim_out_;
         auto leaves = [=](uint32_t id) { return id < n ? 1u : counts[id - n].leaves; };
         auto prims = [=](uint32_t id) { return id < n ? 1u : counts[id - n].prims; };
 
@@ -100,10 +120,7 @@ private:
                     __builtin_prefetch(&children[2 * size_t(r - n)]);
                     __builtin_prefetch(&boxes[r]);
                 }
-                Node &node = nodes[it.pos];
-                node.box = boxes[it.id];
-                node.first = it.below;
-                node.count = 0;
+                sink.inner(it.pos, it.id, it.below);
                 const uint32_t left_nodes = 2 * leaves(l) - 1;
                 if (top == stack_store.size()) {
                     stack_store.resize(2 * top);
@@ -112,19 +129,16 @@ private:
                 stack[top++] = Item{r, it.below + 1, it.below + 2 + (left_nodes - 1), it.prim + prims(l)};
                 it = Item{l, it.below, it.below + 2, it.prim};
             }
-            Node &node = nodes[it.pos];
-            node.box = boxes[it.id];
-            node.first = it.prim;
             // The leaf's primitives, left to right. One primitive, or an
             // inner node over two (most leaves), without the gather stack
             // (docs/PERFORMANCE.md, change 143).
             uint32_t slot = it.prim;
             if (it.id < n) {
-                node.count = 1;
+                sink.leaf(it.pos, it.id, slot, 1);
                 prim_out[slot] = leaf_prims[it.id];
                 continue;
             }
-            node.count = counts[it.id - n].prims;
+            sink.leaf(it.pos, it.id, slot, counts[it.id - n].prims);
             const uint32_t l = children[2 * size_t(it.id - n)], r = children[2 * size_t(it.id - n) + 1];
             if (l < n && r < n) {
                 prim_out[slot] = leaf_prims[l];
@@ -152,9 +166,21 @@ private:
     const BinaryTree &tree_;
     const SubtreeChoices &choices_;
     BuildContext &ctx_;
-    Bvh &out_;
+    const Sink sink_;
+    uint32_t *prim_out_;
     uint32_t n_;
 };
+
+/// The root's choice, and the tree's SAH cost normalised by the root's area.
+SubtreeChoice root_choice(const BinaryTree &tree, const FlattenRule &rule, const SubtreeChoices &choices) {
+    const uint32_t n = tree.leaf_count();
+    return tree.is_leaf(tree.root) ? rule.leaf(tree.boxes[tree.root]) : choices.get(tree.root - n);
+}
+
+double normalised_cost(const BinaryTree &tree, const SubtreeChoice &root) {
+    const double root_area = tree.boxes[tree.root].area();
+    return root_area > 0.0 ? root.cost / root_area : 0.0;
+}
 
 } // namespace
 
@@ -164,13 +190,33 @@ double emit_bvh(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices 
     out.nodes.clear();
     out.prim_ids.clear();
     if (n == 0) return 0.0;
-    const SubtreeChoice root = tree.is_leaf(tree.root) ? rule.leaf(tree.boxes[tree.root]) : choices.get(tree.root - n);
+    const SubtreeChoice root = root_choice(tree, rule, choices);
     choices.release_costs(); // the layout reads only the counts
     out.nodes.resize(2 * size_t(root.leaves) - 1);
     out.prim_ids.resize(n);
-    Emitter(tree, choices, ctx, out).emit(tree.root, 0, 1, 0, 0);
-    const double root_area = tree.boxes[tree.root].area();
-    return root_area > 0.0 ? root.cost / root_area : 0.0;
+    const NodeSink sink{out.nodes.data(), tree.boxes.data()};
+    Emitter<NodeSink>(tree, choices, ctx, sink, out.prim_ids.data()).emit(tree.root, 0, 1, 0, 0);
+    return normalised_cost(tree, root);
+}
+
+double emit_shape(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, BuildContext &ctx,
+                  Array<uint8_t> &shape, Array<uint32_t> &prim_ids) {
+    const uint32_t n = tree.leaf_count();
+    shape.clear();
+    prim_ids.clear();
+    if (n == 0) return 0.0;
+    const SubtreeChoice root = root_choice(tree, rule, choices);
+    choices.release_costs();
+    shape.resize(2 * size_t(root.leaves) - 1);
+    prim_ids.resize(n);
+    const ShapeSink sink{shape.data()};
+    Emitter<ShapeSink>(tree, choices, ctx, sink, prim_ids.data()).emit(tree.root, 0, 1, 0, 0);
+    return normalised_cost(tree, root);
+}
+
+ChosenTree chosen_view(const BinaryTree &tree, const SubtreeChoices &choices) {
+    return ChosenTree{tree.boxes.data(), tree.children.data(), choices.counts().data(), choices.packet_leaves().data(),
+                      tree.leaf_count(), tree.root};
 }
 
 } // namespace aacbvh

@@ -9,94 +9,159 @@
 #include "build/binary_tree.h"
 #include "build/build_context.h"
 #include "bvh/bvh.h"
+#include "bvh/chosen_tree.h"
+#include "bvh/packet_leaf_sweep.h"
 #include "core/memory.h"
 
 namespace aacbvh {
 
 /// The cheapest form of one sub-tree: its SAH cost (unnormalised: Ct A per
 /// inner node plus Ci A N per leaf), primitives below, and leaves it keeps
-/// (1 = the whole sub-tree becomes one leaf).
+/// (1 = the whole sub-tree becomes one leaf). Where the 8-wide layout with
+/// packets is made straight from the tree (FlattenRule::packets), also the
+/// 8-wide layout's own choice (bvh/packet_leaf_sweep.h): whether the sub-tree
+/// becomes one packet leaf, and its cost there.
 struct SubtreeChoice {
     double cost;
     uint32_t prims;
     uint32_t leaves;
+    float packet_cost = 0.0f;
+    bool packet_leaf = false;
 };
 
 struct FlattenRule {
     uint32_t max_leaf_size;
     double traversal_cost;
     double intersection_cost;
+    /// Whether the choices include the packet-leaf ones.
+    bool packets = false;
 
-    SubtreeChoice leaf(const Box &box) const { return {intersection_cost * box.area(), 1, 1}; }
+    SubtreeChoice leaf(const Box &box) const {
+        SubtreeChoice c{intersection_cost * box.area(), 1, 1};
+        if (packets) {
+            c.packet_cost = packet_leaf_cost(box.half_area_of_filled(), 1);
+            c.packet_leaf = true;
+        }
+        return c;
+    }
     /// The decision for an inner node whose children chose l and r.
     SubtreeChoice inner(const Box &box, const SubtreeChoice &l, const SubtreeChoice &r) const {
         const double area = box.area();
         const uint32_t prims = l.prims + r.prims;
         const double split = traversal_cost * area + l.cost + r.cost;
         const double as_leaf = intersection_cost * area * prims;
-        if (prims <= max_leaf_size && as_leaf <= split) return {as_leaf, prims, 1};
-        return {split, prims, l.leaves + r.leaves};
+        SubtreeChoice c = prims <= max_leaf_size && as_leaf <= split ? SubtreeChoice{as_leaf, prims, 1}
+                                                                     : SubtreeChoice{split, prims, l.leaves + r.leaves};
+        if (packets) {
+            // A leaf of the binary layout is a packet leaf whatever its size;
+            // above kMaxPacketLeaf primitives no cost is read
+            // (choose_packet_leaf()), so no area is needed.
+            if (prims > kMaxPacketLeaf) {
+                c.packet_leaf = c.leaves == 1;
+            } else if (c.leaves == 1) {
+                c.packet_cost = packet_leaf_cost(box.half_area_of_filled(), prims);
+                c.packet_leaf = true;
+            } else {
+                c.packet_leaf =
+                    choose_packet_leaf(box.half_area_of_filled(), prims, l.packet_cost, r.packet_cost, c.packet_cost);
+            }
+        }
+        return c;
     }
 };
 
-/// The part of a choice that the layout reads.
-struct SubtreeCounts {
-    uint32_t prims;
-    uint32_t leaves;
-};
-
 /// The builders' view of the choices of a tree's inner nodes (SubtreeChoices
-/// below), indexed by id - leaf_count: two pointers, passed by value.
+/// below), indexed by id - leaf_count: pointers, passed by value; the
+/// packet-leaf pointers are null unless the choices include them.
 class ChoiceTable {
 public:
-    ChoiceTable(double *cost, SubtreeCounts *counts) : cost_(cost), counts_(counts) {}
-    SubtreeChoice get(size_t k) const { return {cost_[k], counts_[k].prims, counts_[k].leaves}; }
+    ChoiceTable(double *cost, SubtreeCounts *counts, float *packet_cost, uint8_t *packet_leaf)
+        : cost_(cost), counts_(counts), packet_cost_(packet_cost), packet_leaf_(packet_leaf) {}
+    SubtreeChoice get(size_t k) const {
+        SubtreeChoice c{cost_[k], counts_[k].prims, counts_[k].leaves};
+        if (packet_cost_) {
+            c.packet_cost = packet_cost_[k];
+            c.packet_leaf = packet_leaf_[k] != 0;
+        }
+        return c;
+    }
     void set(size_t k, const SubtreeChoice &c) const {
         cost_[k] = c.cost;
         counts_[k] = SubtreeCounts{c.prims, c.leaves};
+        if (packet_cost_) {
+            packet_cost_[k] = c.packet_cost;
+            packet_leaf_[k] = c.packet_leaf;
+        }
     }
     uint32_t prims(size_t k) const { return counts_[k].prims; }
 
 private:
     double *cost_;
     SubtreeCounts *counts_;
+    float *packet_cost_;
+    uint8_t *packet_leaf_;
 };
 
-/// Choices of a tree's inner nodes, indexed by id - leaf_count, as a cost
-/// array and a counts array: the costs serve only while choices are made,
-/// so emit_bvh() releases them before it allocates the finished tree (8
-/// bytes per primitive off the build's peak, docs/PERFORMANCE.md row 123).
+/// Choices of a tree's inner nodes, indexed by id - leaf_count, as arrays:
+/// the costs serve only while choices are made, so emit_bvh() and
+/// emit_shape() release them before they allocate the finished tree (8 bytes
+/// per primitive off the build's peak, docs/PERFORMANCE.md row 123); the
+/// counts (and the packet-leaf flags) are what the layout reads.
 class SubtreeChoices {
 public:
-    void resize(size_t n) {
+    /// With `packets`, the choices include the packet-leaf ones
+    /// (FlattenRule::packets must say the same).
+    void resize(size_t n, bool packets = false) {
         cost_.resize(n);
         counts_.resize(n);
+        packet_cost_.resize(packets ? n : 0);
+        packet_leaf_.resize(packets ? n : 0);
     }
-    SubtreeChoice get(size_t k) const { return {cost_[k], counts_[k].prims, counts_[k].leaves}; }
-    void set(size_t k, const SubtreeChoice &c) {
-        cost_[k] = c.cost;
-        counts_[k] = SubtreeCounts{c.prims, c.leaves};
+    SubtreeChoice get(size_t k) const {
+        SubtreeChoice c{cost_[k], counts_[k].prims, counts_[k].leaves};
+        if (!packet_cost_.empty()) {
+            c.packet_cost = packet_cost_[k];
+            c.packet_leaf = packet_leaf_[k] != 0;
+        }
+        return c;
     }
+    void set(size_t k, const SubtreeChoice &c) { table().set(k, c); }
     double cost(size_t k) const { return cost_[k]; }
     uint32_t prims(size_t k) const { return counts_[k].prims; }
     uint32_t leaves(size_t k) const { return counts_[k].leaves; }
     void set_prims(size_t k, uint32_t prims) { counts_[k].prims = prims; }
-    ChoiceTable table() { return ChoiceTable(cost_.data(), counts_.data()); }
-    /// Frees the costs; get() and set() are then out of bounds.
-    void release_costs() { Array<double>().swap(cost_); }
+    ChoiceTable table() {
+        const bool packets = !packet_leaf_.empty();
+        return ChoiceTable(cost_.data(), counts_.data(), packets ? packet_cost_.data() : nullptr,
+                           packets ? packet_leaf_.data() : nullptr);
+    }
+    /// Frees the costs (the packet-leaf ones too); get() and set() are then
+    /// out of bounds.
+    void release_costs() {
+        Array<double>().swap(cost_);
+        Array<float>().swap(packet_cost_);
+    }
     void swap(SubtreeChoices &other) {
         cost_.swap(other.cost_);
         counts_.swap(other.counts_);
+        packet_cost_.swap(other.packet_cost_);
+        packet_leaf_.swap(other.packet_leaf_);
     }
-    /// The two arrays, for copying a tree's choices whole (the optimiser's undo).
+    /// The arrays, for copying a tree's choices whole (the optimiser's undo).
     Array<double> &costs() { return cost_; }
     Array<SubtreeCounts> &counts() { return counts_; }
+    Array<float> &packet_costs() { return packet_cost_; }
+    Array<uint8_t> &packet_leaves() { return packet_leaf_; }
     /// The counts alone (the binary emit reads them through a pointer).
     const Array<SubtreeCounts> &counts() const { return counts_; }
+    /// Whether each node is one packet leaf (empty unless included).
+    const Array<uint8_t> &packet_leaves() const { return packet_leaf_; }
 
 private:
     Array<double> cost_;
     Array<SubtreeCounts> counts_;
+    Array<float> packet_cost_;
+    Array<uint8_t> packet_leaf_;
 };
 
 /// Bottom-up pass for builders that did not decide while building.
@@ -107,5 +172,13 @@ void choose_subtrees(const BinaryTree &tree, const FlattenRule &rule, BuildConte
 /// Releases the choices' costs first (SubtreeChoices::release_costs()).
 double emit_bvh(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, BuildContext &ctx,
                 Bvh &out);
+/// emit_bvh() without the nodes: the emitted layout's shape (one byte a
+/// node: a leaf's primitive count, 0 for an inner node; every leaf must hold
+/// at most 255 primitives) and its primitive indices, for the default layout
+/// (bvh/chosen_tree.h). Returns the same cost.
+double emit_shape(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, BuildContext &ctx,
+                  Array<uint8_t> &shape, Array<uint32_t> &prim_ids);
+/// The tree and its choices as the layouts read them (both must outlive it).
+ChosenTree chosen_view(const BinaryTree &tree, const SubtreeChoices &choices);
 
 } // namespace aacbvh

@@ -29,8 +29,7 @@ bool CompactTopology::encode(const Bvh &bvh, Scheduler &scheduler) {
         [](bool a, bool b) { return a && b; });
     if (!fits) return false;
 
-    uint32_t task_depth = 0;
-    while (task_depth < kMaxTaskDepth && (n >> task_depth) >= 2 * size_t(kTaskNodes)) ++task_depth;
+    const uint32_t task_depth = task_depth_for(n);
     // The tasks' roots in the order the walk meets them (depth first, left
     // first), and where the walk's counters stand there and after them, read
     // off the subtree's outer paths: its leftmost and rightmost leaves give
@@ -74,6 +73,45 @@ bool CompactTopology::encode(const Bvh &bvh, Scheduler &scheduler) {
     Array<Part> parts(tasks.size() + 1);
     std::copy(tasks.begin(), tasks.end(), parts.begin());
     parts[tasks.size()] = Part{0, 0, 1, 0, uint32_t(n - 1), uint32_t(bvh.prim_ids.size())};
+
+    shape_ = std::move(shape);
+    parts_ = std::move(parts);
+    task_depth_ = task_depth;
+    return true;
+}
+
+bool CompactTopology::adopt(Array<uint8_t> &shape, const ChosenTree &tree) {
+    const size_t n = shape.size();
+    if (n == 0 || n >= 0xFFFFFFFFu) return false;
+    const uint32_t task_depth = task_depth_for(n);
+    // encode()'s walk over the top of the tree, on the builder's ids: a
+    // node's children pair and first slot follow from the leaf and
+    // primitive counts (build/flatten.cpp), and a subtree of L leaves uses
+    // 2 (L - 1) positions below its root.
+    struct Item {
+        uint32_t id, pos, pair, slot, depth;
+    };
+    std::vector<Part> tasks;
+    std::vector<Item> stack{{tree.root, 0u, 1u, 0u, 0u}};
+    while (!stack.empty()) {
+        const Item it = stack.back();
+        stack.pop_back();
+        const bool leaf = tree.is_leaf(it.id);
+        if (it.depth < task_depth) {
+            if (!leaf) {
+                const uint32_t l = tree.left(it.id), r = tree.right(it.id);
+                const uint32_t left_nodes = 2 * tree.leaves(l) - 1;
+                stack.push_back({r, it.pair + 1, it.pair + 2 + (left_nodes - 1), it.slot + tree.prims(l), it.depth + 1});
+                stack.push_back({l, it.pair, it.pair + 2, it.slot, it.depth + 1});
+            }
+            continue;
+        }
+        tasks.push_back(Part{it.pos, it.depth, leaf ? 0u : it.pair, it.slot, leaf ? 0u : 2 * (tree.leaves(it.id) - 1),
+                             tree.prims(it.id)});
+    }
+    Array<Part> parts(tasks.size() + 1);
+    std::copy(tasks.begin(), tasks.end(), parts.begin());
+    parts[tasks.size()] = Part{0, 0, 1, 0, uint32_t(n - 1), tree.prims(tree.root)};
 
     shape_ = std::move(shape);
     parts_ = std::move(parts);

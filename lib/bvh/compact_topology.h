@@ -27,6 +27,7 @@
 
 #include "bvh/bvh.h"
 #include "bvh/bvh_stats.h"
+#include "bvh/chosen_tree.h"
 #include "core/box.h"
 #include "core/memory.h"
 #include "core/scheduler.h"
@@ -46,6 +47,13 @@ public:
     bool empty() const { return shape_.empty(); }
     size_t node_count() const { return shape_.size(); }
     uint32_t task_depth() const { return task_depth_; }
+    /// For tests: the shape bytes, and each part's fields in walk order.
+    const Array<uint8_t> &shape() const { return shape_; }
+    std::vector<uint32_t> part_fields() const {
+        std::vector<uint32_t> out;
+        for (const Part &p : parts_) out.insert(out.end(), {p.root, p.depth, p.pair, p.slot, p.pairs_used, p.slots_used});
+        return out;
+    }
     size_t memory_bytes() const { return held_bytes(shape_) + held_bytes(parts_); }
     void clear();
 
@@ -54,6 +62,12 @@ public:
     /// an empty tree or a leaf of more than kMaxLeafCount primitives.
     /// Throws std::bad_alloc, leaving this as it was.
     bool encode(const Bvh &bvh, Scheduler &scheduler);
+
+    /// Takes `shape` (emit_shape()'s, build/flatten.h) as the shape of the
+    /// emitted layout of `tree`, which tells where the tasks' parts start.
+    /// False, leaving both as they were, for an empty shape. Throws
+    /// std::bad_alloc, leaving both as they were.
+    bool adopt(Array<uint8_t> &shape, const ChosenTree &tree);
 
     /// The nodes' `first` and `count`, boxes empty; `nodes` is resized.
     void decode(Array<Node> &nodes) const;
@@ -66,6 +80,12 @@ public:
     template <class LeafBox> TreeFigures walk(LeafBox &&leaf_box, Scheduler &scheduler) const;
 
 private:
+    static uint32_t task_depth_for(size_t node_count) {
+        uint32_t depth = 0;
+        while (depth < kMaxTaskDepth && (node_count >> depth) >= 2 * size_t(kTaskNodes)) ++depth;
+        return depth;
+    }
+
     /// One task's subtree (or, last, the top of the tree): where its walk
     /// starts and what it covers.
     struct Part {

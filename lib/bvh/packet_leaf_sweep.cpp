@@ -7,14 +7,6 @@
 
 namespace aacbvh {
 
-namespace {
-
-/// SAH costs of the packet-leaf choice, relative to a wide node's test.
-constexpr float kPacketCost = 0.25f;
-constexpr float kInnerCost = 0.35f;
-
-} // namespace
-
 PacketLeafSweep::PacketLeafSweep(const Bvh &bvh, Scheduler &scheduler, size_t grain)
     : range_count(bvh.nodes.size()), range_first(bvh.nodes.size()), packet_leaf(bvh.nodes.size()),
       nodes_(bvh.nodes.data()), scheduler_(scheduler), grain_(grain), cost_(bvh.nodes.size()) {
@@ -52,7 +44,7 @@ void PacketLeafSweep::visit(uint32_t i) {
         // leaf of more than kPacketLeaf primitives once made every ancestor
         // "cheaper as a leaf", infinity against infinity, and the whole tree
         // one packet leaf: docs/PERFORMANCE.md, change 145.)
-        cost_[i] = area * kPacketCost * float(packets_for(b.count));
+        cost_[i] = packet_leaf_cost(area, b.count);
         packet_leaf[i] = 1;
         return;
     }
@@ -63,10 +55,7 @@ void PacketLeafSweep::visit(uint32_t i) {
     const uint32_t count = joined ? range_count[l] + range_count[r] : kNoRange;
     range_first[i] = range_first[l];
     range_count[i] = count;
-    const float as_leaf = count <= Wide8Bvh::kPacketLeaf ? area * kPacketCost * float(packets_for(count)) : INFINITY;
-    const float as_tree = area * kInnerCost + cost_[l] + cost_[r];
-    packet_leaf[i] = as_leaf <= as_tree ? 1 : 0;
-    cost_[i] = packet_leaf[i] ? as_leaf : as_tree;
+    packet_leaf[i] = choose_packet_leaf(area, count, cost_[l], cost_[r], cost_[i]) ? 1 : 0;
 }
 
 } // namespace aacbvh

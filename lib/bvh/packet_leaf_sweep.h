@@ -2,6 +2,7 @@
 // (bvh/wide8_bvh.cpp), decided by one bottom-up sweep over the binary tree.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 
@@ -16,6 +17,34 @@ constexpr uint32_t kNoRange = 0xFFFFFFFFu;
 
 /// Packets of four triangles that hold `primitives` leaf slots.
 inline uint32_t packets_for(uint32_t primitives) { return (primitives + 3) / 4; }
+
+/// SAH costs of the packet-leaf choice, relative to a wide node's test.
+constexpr float kPacketCost = 0.25f;
+constexpr float kInnerCost = 0.35f;
+/// Subtrees of at most this many primitives may become one packet leaf
+/// (Wide8Bvh::kPacketLeaf).
+constexpr uint32_t kMaxPacketLeaf = 16;
+
+/// A packet leaf's cost: its packets'.
+inline float packet_leaf_cost(float half_area, uint32_t count) {
+    return half_area * kPacketCost * float(packets_for(count));
+}
+
+/// An inner node of `count` primitives (kNoRange: not one range) whose
+/// children cost `left` and `right`: whether it becomes one packet leaf, and
+/// its cost. A node of more than kMaxPacketLeaf primitives never does, and
+/// its cost is read by no choice (its ancestors are as big): 0, uncomputed.
+inline bool choose_packet_leaf(float half_area, uint32_t count, float left, float right, float &cost) {
+    if (count > kMaxPacketLeaf) {
+        cost = 0.0f;
+        return false;
+    }
+    const float as_leaf = packet_leaf_cost(half_area, count);
+    const float as_tree = half_area * kInnerCost + left + right;
+    const bool leaf = as_leaf <= as_tree;
+    cost = leaf ? as_leaf : as_tree;
+    return leaf;
+}
 
 /// Per binary node: its subtree's slot range (count kNoRange unless its
 /// slots are one range) and whether the subtree becomes one packet leaf. By

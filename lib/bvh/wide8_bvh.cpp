@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -104,19 +105,71 @@ constexpr uint32_t kTaskBit = 0x80000000u;
 /// of their own; the top of the tree, above them, by the calling thread.
 constexpr uint32_t kTaskPrimitives = 1u << 12;
 
+/// The emitted binary nodes as the collapse reads them: with packets, the
+/// sweep's packet leaves and slot ranges.
+struct EmittedSource {
+    using Handle = uint32_t;
+    const Node *nodes;
+    const PacketLeafSweep *sweep; ///< with packets only
+
+    bool is_leaf(uint32_t i) const { return sweep ? sweep->packet_leaf[i] != 0 : nodes[i].is_leaf(); }
+    float half_area(uint32_t i) const { return nodes[i].box.half_area(); }
+    void children(uint32_t i, uint32_t &l, uint32_t &r) const {
+        l = nodes[i].first;
+        r = l + 1;
+    }
+    /// The primitives below, kNoRange when unknown (no packets).
+    uint32_t prims(uint32_t i) const { return sweep ? sweep->range_count[i] : kNoRange; }
+    /// A leaf child's slot range: the binary leaf's, or the small subtree's.
+    void leaf_range(uint32_t i, uint32_t &first, uint32_t &count) const {
+        if (nodes[i].is_leaf()) {
+            first = nodes[i].first;
+            count = nodes[i].count;
+        } else {
+            first = sweep->range_first[i];
+            count = sweep->range_count[i];
+        }
+    }
+    /// What the slot's `sources` entry holds, and the box behind it.
+    uint32_t source(uint32_t i) const { return i; }
+    const Box &box(uint32_t source) const { return nodes[source].box; }
+};
+
+/// A builder's tree before its binary layout (bvh/chosen_tree.h), with
+/// packets: the emitted leaves and the sweep's packet leaves are leaves.
+struct ChosenSource {
+    using Handle = Place;
+    const ChosenTree &tree;
+
+    bool is_leaf(Place p) const { return tree.is_packet_leaf(p.id); }
+    float half_area(Place p) const { return tree.boxes[p.id].half_area(); }
+    void children(Place p, Place &l, Place &r) const {
+        l = Place{tree.left(p.id), p.slot};
+        r = Place{tree.right(p.id), p.slot + tree.prims(l.id)};
+    }
+    uint32_t prims(Place p) const { return tree.prims(p.id); }
+    void leaf_range(Place p, uint32_t &first, uint32_t &count) const {
+        first = p.slot;
+        count = tree.prims(p.id);
+    }
+    uint32_t source(Place p) const { return p.id; }
+    const Box &box(uint32_t source) const { return tree.boxes[source]; }
+};
+
 /// Collapsing: a wide node starts as its binary node's two children and
 /// opens the child of largest area until it has eight children or only
 /// leaves (binary leaves, or packet leaves with packets).
-class Collapser {
+template <class Source> class Collapser {
 public:
-    Collapser(const Node *bnodes, const PacketLeafSweep *sweep) : bnodes_(bnodes), sweep_(sweep) {}
+    using Handle = typename Source::Handle;
+    Collapser(const Source &source, bool packets) : source_(source), packets_(packets) {}
 
     /// The wide nodes from binary node `root` down into `out`; with `tasks`,
     /// inner children of fewer than kTaskPrimitives primitives are left to
     /// tasks (appended to it) instead.
-    void run(uint32_t root, CollapsePiece &out, std::vector<uint32_t> *tasks) const {
+    void run(Handle root, CollapsePiece &out, std::vector<Handle> *tasks) const {
         struct Work {
-            uint32_t binary;
+            Handle binary;
             uint32_t wide;
         };
         std::vector<Work> work{{root, 0u}};
@@ -126,8 +179,8 @@ public:
         // its arrays do not grow by copies in fresh heap pages
         // (docs/PERFORMANCE.md, change 144); a piece that needs more grows
         // as before.
-        if (!tasks && sweep_ && sweep_->range_count[root] != kNoRange) {
-            const size_t prims = sweep_->range_count[root];
+        if (!tasks && packets_ && source_.prims(root) != kNoRange) {
+            const size_t prims = source_.prims(root);
             out.sources.reserve(8 * (prims / 16 + 1));
             out.fields.reserve(16 * (prims / 16 + 1));
             out.packet_slots.reserve(prims / 3 + 1);
@@ -136,8 +189,8 @@ public:
         while (!work.empty()) {
             const Work w = work.back();
             work.pop_back();
-            uint32_t kids[8];
-            const int m = open_largest_children(bnodes_, w.binary, [this](uint32_t i) { return is_leaf(i); }, kids);
+            Handle kids[8];
+            const int m = open_largest<8>(source_, w.binary, kids);
             // Nodes are numbered when their parent meets them, so this one's
             // entries may exist already.
             if (out.sources.size() < 8 * size_t(next)) {
@@ -153,9 +206,9 @@ public:
                 child[k] = Wide8Node::kEmptyChild;
                 count[k] = 0;
                 if (k >= m) continue;
-                src[k] = kids[k];
-                if (!is_leaf(kids[k])) {
-                    const uint32_t prims = sweep_ ? sweep_->range_count[kids[k]] : kNoRange;
+                src[k] = source_.source(kids[k]);
+                if (!source_.is_leaf(kids[k])) {
+                    const uint32_t prims = source_.prims(kids[k]);
                     if (tasks && prims < kTaskPrimitives) {
                         child[k] = kTaskBit | uint32_t(tasks->size());
                         tasks->push_back(kids[k]);
@@ -166,8 +219,8 @@ public:
                     continue;
                 }
                 uint32_t first, c;
-                leaf_range(kids[k], first, c);
-                if (sweep_) {
+                source_.leaf_range(kids[k], first, c);
+                if (packets_) {
                     child[k] = next_packet;
                     count[k] = packets_for(c);
                     for (uint32_t j = 0; j < count[k]; ++j) {
@@ -186,44 +239,26 @@ public:
     }
 
 private:
-    /// With packets, the sweep marks binary leaves as packet leaves too.
-    bool is_leaf(uint32_t i) const { return sweep_ ? sweep_->packet_leaf[i] != 0 : bnodes_[i].is_leaf(); }
-    /// A leaf child's slot range: the binary leaf's, or the small subtree's.
-    void leaf_range(uint32_t i, uint32_t &first, uint32_t &count) const {
-        if (bnodes_[i].is_leaf()) {
-            first = bnodes_[i].first;
-            count = bnodes_[i].count;
-        } else {
-            first = sweep_->range_first[i];
-            count = sweep_->range_count[i];
-        }
-    }
-
-    const Node *bnodes_;
-    const PacketLeafSweep *sweep_; ///< with packets only
+    const Source &source_;
+    bool packets_;
 };
 
 } // namespace
 
-void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &scheduler) {
-    if (bvh.empty()) {
-        clear();
-        built_ = true;
-        return;
-    }
-    const Node *bnodes = bvh.nodes.data();
+template <class Source>
+void Wide8Bvh::build_from(const Source &source, typename Source::Handle root, const Geometry *triangles,
+                          const uint32_t *prim_ids, Scheduler &scheduler, const std::function<void()> &source_done) {
+    using Handle = typename Source::Handle;
     const bool packets = triangles != nullptr;
 
     // Pass 1: the collapse, with packets in pieces: the top of the tree on
     // this thread, the subtrees below it by tasks, each numbered from 0, then
     // placed one after another (top first, tasks in the order the top met
     // them), so the numbering is the same at any thread count.
-    std::unique_ptr<PacketLeafSweep> sweep;
-    if (packets) sweep.reset(new PacketLeafSweep(bvh, scheduler));
-    const Collapser collapser(bnodes, sweep.get());
-    std::vector<uint32_t> tasks;
+    const Collapser<Source> collapser(source, packets);
+    std::vector<Handle> tasks;
     std::vector<CollapsePiece> pieces(1);
-    collapser.run(0, pieces[0], packets ? &tasks : nullptr);
+    collapser.run(root, pieces[0], packets ? &tasks : nullptr);
     pieces.resize(1 + tasks.size());
     scheduler.parallel_for(0, tasks.size(), 1, [&](size_t b, size_t e) {
         for (size_t t = b; t < e; ++t) collapser.run(tasks[t], pieces[1 + t], nullptr);
@@ -265,14 +300,11 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     });
     std::vector<CollapsePiece>().swap(pieces);
     piece_bytes.reset();
-    sweep.reset();
 
     // Pass 2, in parallel: nodes and packets.
     constexpr size_t kAhead = 8;
     Array<Wide8Node> nodes(next);
-    Array<TrianglePacket> packet_array(packets ? next_packet : 0);
     Array<uint32_t> packet_owner(packets ? next_packet : 0);
-    const uint32_t *prim_ids = bvh.prim_ids.data();
     scheduler.parallel_for(0, next, 1u << 10, [&](size_t b, size_t e) {
         for (size_t w = b; w < e; ++w) {
             Wide8Node &node = nodes[w];
@@ -281,7 +313,7 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
             if (w + kAhead < e)
                 for (int k = 0; k < 8; ++k) {
                     const uint32_t s = sources[8 * (w + kAhead) + k];
-                    if (s != Wide8Node::kEmptyChild) __builtin_prefetch(&bnodes[s]);
+                    if (s != Wide8Node::kEmptyChild) __builtin_prefetch(&source.box(s));
                 }
             for (int k = 0; k < 8; ++k) {
                 const uint32_t s = sources[8 * w + k];
@@ -289,7 +321,7 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
                     set_empty_slot(node, k);
                     continue;
                 }
-                write_slot_box(node, k, bnodes[s].box);
+                write_slot_box(node, k, source.box(s));
                 node.child[k] = fields[16 * w + k];
                 node.count[k] = fields[16 * w + 8 + k];
                 if (packets)
@@ -297,8 +329,13 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
             }
         }
     });
+    Array<uint32_t>().swap(fields);
+    // The source's boxes are read no more: a caller may free them before
+    // the packets are allocated.
+    if (source_done) source_done();
     // Pass 3, in parallel: the packets, in packet order; the triangles they
     // gather are asked for ahead (two steps: the index, then the vertices).
+    Array<TrianglePacket> packet_array(packets ? next_packet : 0);
     scheduler.parallel_for(0, next_packet, 1u << 12, [&](size_t b, size_t e) {
         for (size_t p = b; p < e; ++p) {
             if (p + 16 < e)
@@ -310,7 +347,6 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
             fill_packet(packet_array[p], *triangles, prim_ids, packet_slots[p], packet_lanes[p]);
         }
     });
-    Array<uint32_t>().swap(fields);
     Array<uint32_t>().swap(packet_slots);
     Array<uint8_t>().swap(packet_lanes);
     nodes_ = std::move(nodes);
@@ -319,6 +355,27 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     packet_owner_ = std::move(packet_owner);
     node_count_ = next;
     built_ = true;
+}
+
+void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &scheduler) {
+    if (bvh.empty()) {
+        clear();
+        built_ = true;
+        return;
+    }
+    std::unique_ptr<PacketLeafSweep> sweep;
+    if (triangles) sweep.reset(new PacketLeafSweep(bvh, scheduler));
+    const EmittedSource source{bvh.nodes.data(), sweep.get()};
+    build_from(source, 0u, triangles, bvh.prim_ids.data(), scheduler, [&] { sweep.reset(); });
+}
+
+void Wide8Bvh::build(const ChosenTree &tree, const Geometry &triangles, const uint32_t *prim_ids,
+                     Scheduler &scheduler, const std::function<void()> &tree_done) {
+    const ChosenSource source{tree};
+    build_from(source, Place{tree.root, 0}, &triangles, prim_ids, scheduler, tree_done);
+    // Its sources are the builder's ids, which mean nothing once the build
+    // is over: the handle keeps the binary tree's shape instead.
+    release_sources();
 }
 
 void Wide8Bvh::refit(const Bvh &bvh, const Geometry &geometry, Scheduler &scheduler) {

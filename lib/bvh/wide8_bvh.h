@@ -19,8 +19,11 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 
 #include "bvh/bvh.h"
+#include "bvh/chosen_tree.h"
+#include "bvh/packet_leaf_sweep.h"
 #include "core/box.h"
 #include "core/geometry.h"
 #include "core/memory.h"
@@ -77,7 +80,7 @@ struct alignas(32) PacketEdges {
 class Wide8Bvh {
 public:
     /// Subtrees of at most this many primitives become one packet leaf.
-    static constexpr uint32_t kPacketLeaf = 16;
+    static constexpr uint32_t kPacketLeaf = kMaxPacketLeaf;
 
     bool built() const { return built_; }
     bool has_packets() const { return packets_.size() > 0; }
@@ -91,6 +94,14 @@ public:
     /// leaves are the binary leaves' slot ranges. Replaces the previous tree
     /// only on success; throws std::bad_alloc.
     void build(const Bvh &bvh, const Geometry *triangles, Scheduler &scheduler);
+    /// The same tree with packets, collapsed straight from a builder's tree
+    /// (bvh/chosen_tree.h) instead of its emitted binary nodes (which need
+    /// not exist), `prim_ids` its emitted primitive order (emit_shape(),
+    /// build/flatten.h). Calls `tree_done` once the tree's boxes are read no
+    /// more (before the packets are made). Keeps no sources (refit from the
+    /// packets). Throws std::bad_alloc, keeping the previous tree.
+    void build(const ChosenTree &tree, const Geometry &triangles, const uint32_t *prim_ids, Scheduler &scheduler,
+               const std::function<void()> &tree_done);
     /// After a refit of `bvh`: copies its boxes into the wide nodes and, with
     /// packets, the triangles' new vertices from `geometry`. No allocation.
     void refit(const Bvh &bvh, const Geometry &geometry, Scheduler &scheduler);
@@ -125,11 +136,18 @@ public:
         return b;
     }
 
+    /// The packets' owners: 8 * node + slot of each packet's leaf child.
+    const Array<uint32_t> &packet_owners() const { return packet_owner_; }
+
     size_t memory_bytes() const {
         return held_bytes(nodes_) + held_bytes(sources_) + held_bytes(packets_) + held_bytes(packet_owner_);
     }
 
 private:
+    /// Both builds: the collapse of `source` (wide8_bvh.cpp) from `root`.
+    template <class Source>
+    void build_from(const Source &source, typename Source::Handle root, const Geometry *triangles,
+                    const uint32_t *prim_ids, Scheduler &scheduler, const std::function<void()> &source_done);
     /// Re-reads every packet's vertices from `geometry`.
     void refill_packets(const Geometry &geometry, Scheduler &scheduler);
 

@@ -9,7 +9,8 @@
 
 namespace aacbvh {
 
-/// The children of the wide node over binary node `root`: its two binary
+/// The children of the wide node over binary node `root` of `source` (a
+/// Source: Handle, is_leaf(h), half_area(h), children(h, l, r)): its two binary
 /// children, then the child of largest area (the first of equals) opened
 /// into its two until there are `Width` children or only leaves, as
 /// `is_leaf(i)` says (binary leaves, or whatever else the layout keeps
@@ -21,9 +22,10 @@ namespace aacbvh {
 /// box first (the one most likely to hold an occluder), and a closest-hit
 /// query that enters two boxes at the same distance (a ray starting inside
 /// both) visits the smaller first, whose hits lie nearer on average.
-template <int Width, class IsLeaf>
-int open_largest_children(const Node *nodes, uint32_t root, const IsLeaf &is_leaf, uint32_t (&kids)[Width]) {
-    if (is_leaf(root)) {
+template <int Width, class Source>
+int open_largest(const Source &source, typename Source::Handle root, typename Source::Handle (&kids)[Width]) {
+    using Handle = typename Source::Handle;
+    if (source.is_leaf(root)) {
         kids[0] = root;
         return 1;
     }
@@ -31,13 +33,15 @@ int open_largest_children(const Node *nodes, uint32_t root, const IsLeaf &is_lea
     float area[Width];
     bool leaf[Width];
     int m = 0;
-    const auto join = [&](int k, uint32_t node) {
+    const auto join = [&](int k, Handle node) {
         kids[k] = node;
-        area[k] = nodes[node].box.half_area();
-        leaf[k] = is_leaf(node);
+        area[k] = source.half_area(node);
+        leaf[k] = source.is_leaf(node);
     };
-    join(m++, nodes[root].first);
-    join(m++, nodes[root].first + 1);
+    Handle l, r;
+    source.children(root, l, r);
+    join(m++, l);
+    join(m++, r);
     while (m < Width) {
         // Leaves count as area -1: never opened, and no branch on leafness.
         int open = -1;
@@ -48,12 +52,12 @@ int open_largest_children(const Node *nodes, uint32_t root, const IsLeaf &is_lea
             open_area = a > open_area ? a : open_area;
         }
         if (open < 0) break;
-        const uint32_t first = nodes[kids[open]].first;
-        join(open, first);
-        join(m++, first + 1);
+        source.children(kids[open], l, r);
+        join(open, l);
+        join(m++, r);
     }
     for (int k = 1; k < m; ++k) { // insertion sort, stable
-        const uint32_t kid = kids[k];
+        const Handle kid = kids[k];
         const float a = area[k];
         int i = k;
         for (; i > 0 && area[i - 1] < a; --i) {
@@ -64,6 +68,25 @@ int open_largest_children(const Node *nodes, uint32_t root, const IsLeaf &is_lea
         area[i] = a;
     }
     return m;
+}
+
+/// The emitted binary nodes as open_largest() reads them, with the leaves
+/// `is_leaf(i)` says.
+template <class IsLeaf> struct EmittedNodes {
+    using Handle = uint32_t;
+    const Node *nodes;
+    const IsLeaf &leaf;
+    bool is_leaf(uint32_t i) const { return leaf(i); }
+    float half_area(uint32_t i) const { return nodes[i].box.half_area(); }
+    void children(uint32_t i, uint32_t &l, uint32_t &r) const {
+        l = nodes[i].first;
+        r = l + 1;
+    }
+};
+
+template <int Width, class IsLeaf>
+int open_largest_children(const Node *nodes, uint32_t root, const IsLeaf &is_leaf, uint32_t (&kids)[Width]) {
+    return open_largest<Width>(EmittedNodes<IsLeaf>{nodes, is_leaf}, root, kids);
 }
 
 } // namespace aacbvh

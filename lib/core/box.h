@@ -37,6 +37,12 @@ struct Box {
         const float dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
         return dx * dy + dy * dz + dz * dx;
     }
+    /// half_area() of a box known not to be empty (a tree's: a primitive's,
+    /// or a union of them), without the test.
+    float half_area_of_filled() const {
+        const float dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
+        return dx * dy + dy * dz + dz * dx;
+    }
     /// Full surface area in double precision, for reported SAH costs.
     double area() const {
         if (is_empty()) return 0.0;

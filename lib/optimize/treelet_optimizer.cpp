@@ -271,6 +271,8 @@ OptimizeReport optimize_tree(BinaryTree &tree, const FlattenRule &rule, SubtreeC
         copy_array(tree.boxes, saved_boxes, sched);
         copy_array(choices.costs(), saved_choices.costs(), sched);
         copy_array(choices.counts(), saved_choices.counts(), sched);
+        copy_array(choices.packet_costs(), saved_choices.packet_costs(), sched);
+        copy_array(choices.packet_leaves(), saved_choices.packet_leaves(), sched);
         const uint32_t saved_root = tree.root;
         uint64_t changed = reinsertion.round();
         if (changed) {

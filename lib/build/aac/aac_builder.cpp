@@ -212,7 +212,7 @@ void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &ru
         out.root = 0;
         return;
     }
-    choices.resize(n);
+    choices.resize(n, rule.packets);
     AacRecursion(config, rule, ctx, out, choices, codes.data(), distance_scale(input.bounds)).run();
 }
 
