@@ -1,5 +1,8 @@
 // Which binary subtrees the 8-wide layout keeps whole as one packet leaf
-// (bvh/wide8_bvh.cpp), decided by one bottom-up sweep over the binary tree.
+// (bvh/wide8_bvh.cpp), decided by one bottom-up sweep over the binary tree;
+// or, in a build of the default layout, by the same rule
+// (choose_packet_leaf()) beside the flattening's choices
+// (FlattenRule::packets, build/flatten.h).
 #pragma once
 
 #include <cmath>

@@ -1,5 +1,7 @@
 // The 8-wide traversal layout (AACBVH_LAYOUT_WIDE8, the default): a tree
-// collapsed from the finished binary Bvh whose nodes hold their eight
+// collapsed from the finished binary Bvh (or, in a build of the default
+// layout, from the builder's binary tree before any Bvh exists:
+// bvh/chosen_tree.h; the same tree) whose nodes hold their eight
 // children's boxes as a structure of arrays, tested against one ray at once
 // (trace/wide8_traversal.h), and, for triangles stored in the BVH
 // (AACBVH_TRIANGLES_COPIED, the default), leaves made of triangle packets:

@@ -84,6 +84,7 @@ template <class IsLeaf> struct EmittedNodes {
     }
 };
 
+/// open_largest() over the emitted binary nodes.
 template <int Width, class IsLeaf>
 int open_largest_children(const Node *nodes, uint32_t root, const IsLeaf &is_leaf, uint32_t (&kids)[Width]) {
     return open_largest<Width>(EmittedNodes<IsLeaf>{nodes, is_leaf}, root, kids);
