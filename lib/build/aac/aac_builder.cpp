@@ -204,10 +204,15 @@ void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &ru
     sort_by_morton_code(input, ctx.scheduler(), codes, order);
     ctx.report(0.3);
 
-    out.resize(n);
+    // The children come after the input is freed: the gather is the build's
+    // memory peak (docs/PERFORMANCE.md, row 149).
+    out.boxes.resize(2 * size_t(n));
+    out.prim_ids.resize(n);
     gather_leaves(input, order.data(), ctx.scheduler(), out);
     Array<uint32_t>().swap(order);
     Array<Box>().swap(input.boxes); // the leaves hold them now, in Morton order
+    Array<uint32_t>().swap(input.prim_ids); // and the primitives' indices
+    out.children.resize(2 * size_t(n));
     if (n == 1) {
         out.root = 0;
         return;
