@@ -171,12 +171,13 @@ private:
     uint32_t n_;
 };
 
-/// The root's choice, and the tree's SAH cost normalised by the root's area.
+/// The root's choice.
 SubtreeChoice root_choice(const BinaryTree &tree, const FlattenRule &rule, const SubtreeChoices &choices) {
     const uint32_t n = tree.leaf_count();
     return tree.is_leaf(tree.root) ? rule.leaf(tree.boxes[tree.root]) : choices.get(tree.root - n);
 }
 
+/// The tree's SAH cost normalised by the root's area (0 when that area is 0).
 double normalised_cost(const BinaryTree &tree, const SubtreeChoice &root) {
     const double root_area = tree.boxes[tree.root].area();
     return root_area > 0.0 ? root.cost / root_area : 0.0;
