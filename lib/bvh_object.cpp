@@ -230,8 +230,8 @@ std::atomic<bool> straight_layouts{true};
 } // namespace testing
 
 bool BvhObject::straight_to_compact(size_t primitives) const {
-    return testing::straight_layouts.load(std::memory_order_relaxed) && packets_wanted() && params.max_leaf_size <= CompactTopology::kMaxLeafCount &&
-           primitives < (size_t(1) << 31);
+    return testing::straight_layouts.load(std::memory_order_relaxed) && packets_wanted() &&
+           params.max_leaf_size <= CompactTopology::kMaxLeafCount && primitives < (size_t(1) << 31);
 }
 
 void BvhObject::make_compact_layouts(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices,

@@ -38,7 +38,6 @@ struct ChosenTree {
     uint32_t n;
     uint32_t root;
 
-    bool is_primitive(uint32_t id) const { return id < n; }
     uint32_t left(uint32_t id) const { return children[2 * size_t(id - n)]; }
     uint32_t right(uint32_t id) const { return children[2 * size_t(id - n) + 1]; }
     uint32_t prims(uint32_t id) const { return id < n ? 1u : counts[id - n].prims; }

@@ -107,17 +107,10 @@ constexpr uint32_t kTaskPrimitives = 1u << 12;
 
 /// The emitted binary nodes as the collapse reads them: with packets, the
 /// sweep's packet leaves and slot ranges.
-struct EmittedSource {
-    using Handle = uint32_t;
-    const Node *nodes;
+struct EmittedSource : EmittedShape {
     const PacketLeafSweep *sweep; ///< with packets only
 
     bool is_leaf(uint32_t i) const { return sweep ? sweep->packet_leaf[i] != 0 : nodes[i].is_leaf(); }
-    float half_area(uint32_t i) const { return nodes[i].box.half_area(); }
-    void children(uint32_t i, uint32_t &l, uint32_t &r) const {
-        l = nodes[i].first;
-        r = l + 1;
-    }
     /// The primitives below, kNoRange when unknown (no packets).
     uint32_t prims(uint32_t i) const { return sweep ? sweep->range_count[i] : kNoRange; }
     /// A leaf child's slot range: the binary leaf's, or the small subtree's.
@@ -365,7 +358,7 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     }
     std::unique_ptr<PacketLeafSweep> sweep;
     if (triangles) sweep.reset(new PacketLeafSweep(bvh, scheduler));
-    const EmittedSource source{bvh.nodes.data(), sweep.get()};
+    const EmittedSource source{{bvh.nodes.data()}, sweep.get()};
     build_from(source, 0u, triangles, bvh.prim_ids.data(), scheduler, [&] { sweep.reset(); });
 }
 

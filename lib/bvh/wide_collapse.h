@@ -70,13 +70,11 @@ int open_largest(const Source &source, typename Source::Handle root, typename So
     return m;
 }
 
-/// The emitted binary nodes as open_largest() reads them, with the leaves
-/// `is_leaf(i)` says.
-template <class IsLeaf> struct EmittedNodes {
+/// The emitted binary nodes' areas and children as open_largest() reads
+/// them; a Source adds is_leaf().
+struct EmittedShape {
     using Handle = uint32_t;
     const Node *nodes;
-    const IsLeaf &leaf;
-    bool is_leaf(uint32_t i) const { return leaf(i); }
     float half_area(uint32_t i) const { return nodes[i].box.half_area(); }
     void children(uint32_t i, uint32_t &l, uint32_t &r) const {
         l = nodes[i].first;
@@ -84,10 +82,15 @@ template <class IsLeaf> struct EmittedNodes {
     }
 };
 
-/// open_largest() over the emitted binary nodes.
+/// open_largest() over the emitted binary nodes, with the leaves
+/// `is_leaf(i)` says.
 template <int Width, class IsLeaf>
 int open_largest_children(const Node *nodes, uint32_t root, const IsLeaf &is_leaf, uint32_t (&kids)[Width]) {
-    return open_largest<Width>(EmittedNodes<IsLeaf>{nodes, is_leaf}, root, kids);
+    struct Source : EmittedShape {
+        const IsLeaf &leaf;
+        bool is_leaf(uint32_t i) const { return leaf(i); }
+    };
+    return open_largest<Width>(Source{{nodes}, is_leaf}, root, kids);
 }
 
 } // namespace aacbvh

@@ -32,11 +32,7 @@ struct Box {
     float centroid(int k) const { return 0.5f * lo[k] + 0.5f * hi[k]; }
 
     /// Half the surface area (the SAH only needs ratios); 0 for an empty box.
-    float half_area() const {
-        if (is_empty()) return 0.0f;
-        const float dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
-        return dx * dy + dy * dz + dz * dx;
-    }
+    float half_area() const { return is_empty() ? 0.0f : half_area_of_filled(); }
     /// half_area() of a box known not to be empty (a tree's: a primitive's,
     /// or a union of them), without the test.
     float half_area_of_filled() const {
