@@ -53,6 +53,17 @@ template <int kVectors> struct SmallCombine {
         nn[i] = -1;
     }
 
+    /// The greedy loop's slot moves after a merge (combine_small_loop.inl).
+    void move_slots(uint32_t a, const Box &box, uint32_t b, uint32_t last) {
+        if (b != last) {
+            set(b, get(last));
+            nd[b] = nd[last];
+            nn[b] = nn[last];
+        }
+        retire(last); // no longer live
+        set(a, box);
+    }
+
     Box get(uint32_t i) const {
         Box b;
         for (int k = 0; k < 3; ++k) {

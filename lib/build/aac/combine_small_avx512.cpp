@@ -61,6 +61,42 @@ template <int kVectors> struct SmallCombine512 {
         }
     }
 
+    /// Lane i of `lanes` (kLanes of them) set to `value` by rewriting the
+    /// whole register of 16 lanes that holds it, for the writes between
+    /// merges: the next whole-register load of those lanes then takes the
+    /// value from this store, where a one-lane store under it would stall
+    /// the load until the store retires (docs/PERFORMANCE.md, row 152).
+    static void put(float *lanes, uint32_t i, float value) {
+        float *at = lanes + (i & ~15u);
+        _mm512_store_ps(at, _mm512_mask_broadcastss_ps(_mm512_load_ps(at), __mmask16(1u << (i & 15)),
+                                                       _mm_set_ss(value)));
+    }
+    static void put(int32_t *lanes, uint32_t i, int32_t value) {
+        int32_t *at = lanes + (i & ~15u);
+        _mm512_store_si512(at, _mm512_mask_set1_epi32(_mm512_load_si512(at), __mmask16(1u << (i & 15)), value));
+    }
+    void replace(uint32_t i, const Box &b) {
+        box[i] = b;
+        for (int k = 0; k < 3; ++k) {
+            put(col[k], i, b.lo[k]);
+            put(col[k + 3], i, b.hi[k]);
+        }
+    }
+
+    /// The greedy loop's slot moves after a merge (combine_small_loop.inl),
+    /// as retire() and set() do, by whole-register writes.
+    void move_slots(uint32_t a, const Box &merged_box, uint32_t b, uint32_t last) {
+        if (b != last) {
+            replace(b, box[last]);
+            put(nd, b, nd[last]);
+            put(nn, b, nn[last]);
+        }
+        replace(last, kFarBox);
+        put(nd, last, INFINITY);
+        put(nn, last, 0);
+        replace(a, merged_box);
+    }
+
     /// Bit j set for the live slots j < live other than `except`.
     static uint64_t live_bits(uint32_t live, uint32_t except) {
         const uint64_t below = live >= 64 ? ~uint64_t(0) : (uint64_t(1) << live) - 1;
@@ -124,8 +160,8 @@ template <int kVectors> struct SmallCombine512 {
         float best;
         const uint32_t nearest_a = nearest(a, live, best); // fills the row with d(a, .)
         update(a, b, last, live);
-        nn[a] = int32_t(nearest_a);
-        nd[a] = best;
+        put(nn, a, int32_t(nearest_a));
+        put(nd, a, best);
         return closest_pair(live);
     }
 
@@ -155,7 +191,9 @@ template <int kVectors> struct SmallCombine512 {
         }
         for (; again_bits; again_bits &= again_bits - 1) {
             const uint32_t j = uint32_t(__builtin_ctzll(again_bits));
-            nn[j] = int32_t(nearest(j, live, nd[j]));
+            float best;
+            put(nn, j, int32_t(nearest(j, live, best)));
+            put(nd, j, best);
         }
     }
 };

@@ -5,6 +5,9 @@
 //   void set(uint32_t slot, const Box &); Box get(uint32_t slot) const;
 //   static uint32_t padded(uint32_t count);  the lanes its loops read;
 //   void retire(uint32_t slot);  a lane past the live slots (kFarBox);
+//   void move_slots(uint32_t a, const Box &, uint32_t b, uint32_t last);  after
+//     a merge of a and b: slot last moved to b (unless b is last), last
+//     retired, a set to the merged box;
 //   void all_nearest(uint32_t count);  every slot's nearest other slot (the
 //     lowest of equals) into nn, its distance into nd;
 //   uint32_t closest_pair(uint32_t live) const;  the lowest slot whose nd is
@@ -46,15 +49,9 @@ uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, 
                                          cluster_choice(tree, rule, choices, ids[b])));
 
         const uint32_t last = live - 1;
-        if (b != last) {
-            s.set(b, s.get(last));
-            ids[b] = ids[last];
-            s.nd[b] = s.nd[last];
-            s.nn[b] = s.nn[last];
-        }
-        s.retire(last); // no longer live
+        s.move_slots(a, merged, b, last);
+        if (b != last) ids[b] = ids[last];
         live = last;
-        s.set(a, merged);
         ids[a] = node;
         next = s.after_merge(a, b, last, live);
     }
