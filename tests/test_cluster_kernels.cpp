@@ -376,7 +376,8 @@ void test_combine_variants_agree(void **) {
     aacbvh::Scheduler scheduler(1);
     aacbvh::BuildContext ctx(scheduler, nullptr, nullptr);
     for_each_kernel([&] {
-        for (uint32_t count : {2u, 3u, 4u, 5u, 6u, 7u, 8u, 9u, 16u, 17u, 24u, 32u, 33u, 40u, 48u, 49u, 64u, 65u, 300u}) {
+        for (uint32_t count : {2u, 3u, 4u, 5u, 6u, 7u, 8u, 9u, 16u, 17u, 24u, 32u, 33u, 40u, 48u, 49u, 64u, 65u, 80u, 81u,
+                               97u, 112u, 113u, 127u, 128u, 129u, 300u}) {
             for (uint32_t seed = 1; seed <= (count <= 16 ? 32u : 6u); ++seed) {
                 for (uint32_t target : {1u, 2u, count / 3 + 1, count - 1}) {
                     CombineCase reference(count, seed);

@@ -508,11 +508,13 @@ uint32_t combine_clusters(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, u
     // bookkeeping (two strided column writes per merge) at every size
     // (change 76: dragon, the combines of ranges of 4,096 primitives and
     // more, AAC-Fast 29 -> 19 ms, AAC-HQ 38 -> 25 ms).
-    // AVX-512 runs the same loops with 16 lanes a register (change 81).
+    // AVX-512 runs the same loops with 16 lanes a register (change 81), its
+    // register loop up to kWideSmallCombine512 clusters (change 154).
     const DistanceKernel kernel = distance_kernel();
     const bool avx2 = kernel >= DistanceKernel::Avx2; // or AVX-512
-    const uint32_t small_limit = avx2 ? kWideSmallCombine : kSmallCombine;
-    const uint32_t matrix_limit = avx2 ? kWideSmallCombine : kMatrixCombine;
+    const uint32_t wide_limit = kernel == DistanceKernel::Avx512 ? kWideSmallCombine512 : kWideSmallCombine;
+    const uint32_t small_limit = avx2 ? wide_limit : kSmallCombine;
+    const uint32_t matrix_limit = avx2 ? wide_limit : kMatrixCombine;
     if (variant == CombineVariant::Automatic)
         variant = count <= small_limit    ? CombineVariant::Small
                   : count <= matrix_limit ? CombineVariant::Matrix

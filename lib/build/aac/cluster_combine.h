@@ -65,10 +65,10 @@ private:
 /// clusters use the calling thread's scratch from the build's `scratch_pool`.
 ///
 /// Three greedy loops give the same merges: a register-sized one for at most
-/// kSmallCombine clusters (kWideSmallCombine with the AVX2 and AVX-512
-/// kernels, build/aac/combine_small.h), one over a cached distance matrix up
-/// to kMatrixCombine (never with those kernels), and one that recomputes rows
-/// beyond. Each merges slot a, the lowest slot at the smallest nearest
+/// kSmallCombine clusters (kWideSmallCombine with the AVX2 kernel,
+/// kWideSmallCombine512 with AVX-512, build/aac/combine_small.h), one over a
+/// cached distance matrix up to kMatrixCombine (never with those kernels),
+/// and one that recomputes rows beyond. Each merges slot a, the lowest slot at the smallest nearest
 /// distance, with its recorded nearest neighbour. Combines of at most
 /// kFewCombine clusters (with every kernel) and those that make one merge
 /// take instead the first pair (a, b) in slot order at the smallest distance,

@@ -10,6 +10,7 @@
 
 #include <cfloat>
 #include <cmath>
+#include <type_traits>
 #include <utility>
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
@@ -32,9 +33,19 @@
 namespace aacbvh {
 namespace {
 
+__extension__ typedef unsigned __int128 Bits128;
+
+inline uint32_t lowest_bit(uint64_t x) { return uint32_t(__builtin_ctzll(x)); }
+inline uint32_t lowest_bit(Bits128 x) {
+    const uint64_t low = uint64_t(x);
+    return low ? uint32_t(__builtin_ctzll(low)) : 64 + uint32_t(__builtin_ctzll(uint64_t(x >> 64)));
+}
+
 /// Up to 16 * kVectors clusters, kVectors registers per row.
 template <int kVectors> struct SmallCombine512 {
     static constexpr uint32_t kLanes = 16 * kVectors;
+    /// One bit per lane.
+    using Bits = std::conditional_t<(kLanes > 64), Bits128, uint64_t>;
     alignas(64) float col[6][kLanes]; ///< lo x, y, z, hi x, y, z of each live cluster
     alignas(64) float nd[kLanes];     ///< distance to the nearest neighbour
     alignas(64) int32_t nn[kLanes];   ///< the nearest neighbour's slot
@@ -98,9 +109,9 @@ template <int kVectors> struct SmallCombine512 {
     }
 
     /// Bit j set for the live slots j < live other than `except`.
-    static uint64_t live_bits(uint32_t live, uint32_t except) {
-        const uint64_t below = live >= 64 ? ~uint64_t(0) : (uint64_t(1) << live) - 1;
-        return below & ~(uint64_t(1) << except);
+    static Bits live_bits(uint32_t live, uint32_t except) {
+        const Bits below = live >= kLanes ? ~Bits(0) : (Bits(1) << live) - 1;
+        return below & ~(Bits(1) << except);
     }
 
     /// nearest() of every slot in [0, count) into nd and nn.
@@ -114,7 +125,7 @@ template <int kVectors> struct SmallCombine512 {
         __m512 q[6];
         for (int k = 0; k < 6; ++k) q[k] = _mm512_set1_ps(col[k][i]);
         const __m512 inf = _mm512_set1_ps(INFINITY), fmax = _mm512_set1_ps(FLT_MAX);
-        const uint64_t valid = live_bits(live, i);
+        const Bits valid = live_bits(live, i);
         __m512 m = inf;
         __m512 r[kVectors];
         for (int v = 0; v < kVectors; ++v) {
@@ -136,11 +147,11 @@ template <int kVectors> struct SmallCombine512 {
     /// The lowest lane of r holding the minimum of the lane-wise minima m.
     static uint32_t first_equal(const __m512 *r, __m512 m, float &best) {
         const __m512 low = _mm512_set1_ps(_mm512_reduce_min_ps(m));
-        uint64_t mask = 0;
+        Bits mask = 0;
         for (int v = 0; v < kVectors; ++v)
-            mask |= uint64_t(_mm512_cmp_ps_mask(r[v], low, _CMP_EQ_OQ)) << (16 * v);
+            mask |= Bits(_mm512_cmp_ps_mask(r[v], low, _CMP_EQ_OQ)) << (16 * v);
         best = _mm512_cvtss_f32(low);
-        return uint32_t(__builtin_ctzll(mask)); // a row always has a finite entry (live >= 2)
+        return lowest_bit(mask); // a row always has a finite entry (live >= 2)
     }
 
     /// The smallest nd among the live slots (lanes past live hold +inf).
@@ -172,8 +183,8 @@ template <int kVectors> struct SmallCombine512 {
     void update(uint32_t a, uint32_t b, uint32_t last, uint32_t live) {
         const __m512i va = _mm512_set1_epi32(int(a)), vb = _mm512_set1_epi32(int(b)),
                       vlast = _mm512_set1_epi32(int(last));
-        const uint64_t live_lanes = live_bits(live, a);
-        uint64_t again_bits = 0;
+        const Bits live_lanes = live_bits(live, a);
+        Bits again_bits = 0;
         for (int v = 0; v < kVectors; ++v) {
             const __mmask16 lane_live = __mmask16(live_lanes >> (16 * v));
             __m512i p = _mm512_load_si512(nn + 16 * v);
@@ -187,10 +198,10 @@ template <int kVectors> struct SmallCombine512 {
             p = _mm512_mask_mov_epi32(p, take, va);
             _mm512_store_si512(nn + 16 * v, p);
             _mm512_store_ps(nd + 16 * v, _mm512_mask_mov_ps(n, take, d));
-            again_bits |= uint64_t(again) << (16 * v);
+            again_bits |= Bits(again) << (16 * v);
         }
         for (; again_bits; again_bits &= again_bits - 1) {
-            const uint32_t j = uint32_t(__builtin_ctzll(again_bits));
+            const uint32_t j = lowest_bit(again_bits);
             float best;
             put(nn, j, int32_t(nearest(j, live, best)));
             put(nd, j, best);
@@ -217,7 +228,11 @@ uint32_t combine_small_avx512(BinaryTree &tree, uint32_t *ids, uint32_t *free_id
     if (count <= 16) return run<1>(tree, ids, free_ids, count, target, scale, rule, choices);
     if (count <= 32) return run<2>(tree, ids, free_ids, count, target, scale, rule, choices);
     if (count <= 48) return run<3>(tree, ids, free_ids, count, target, scale, rule, choices);
-    return run<4>(tree, ids, free_ids, count, target, scale, rule, choices);
+    if (count <= 64) return run<4>(tree, ids, free_ids, count, target, scale, rule, choices);
+    if (count <= 80) return run<5>(tree, ids, free_ids, count, target, scale, rule, choices);
+    if (count <= 96) return run<6>(tree, ids, free_ids, count, target, scale, rule, choices);
+    if (count <= 112) return run<7>(tree, ids, free_ids, count, target, scale, rule, choices);
+    return run<8>(tree, ids, free_ids, count, target, scale, rule, choices);
 }
 
 } // namespace aacbvh
