@@ -135,6 +135,12 @@ struct ChosenSource {
     const ChosenTree &tree;
 
     bool is_leaf(Place p) const { return tree.is_packet_leaf(p.id); }
+    /// The builder's ids are in merge order, so a node's children lie
+    /// anywhere: their ids are asked for as soon as the node joins a wide
+    /// node, before the areas decide whether it is opened.
+    void prefetch_children(Place p) const {
+        if (p.id >= tree.n) __builtin_prefetch(&tree.children[2 * size_t(p.id - tree.n)]);
+    }
     float half_area(Place p) const { return tree.boxes[p.id].half_area(); }
     void children(Place p, Place &l, Place &r) const {
         l = Place{tree.left(p.id), p.slot};

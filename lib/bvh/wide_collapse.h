@@ -10,7 +10,8 @@
 namespace aacbvh {
 
 /// The children of the wide node over binary node `root` of `source` (a
-/// Source: Handle, is_leaf(h), half_area(h), children(h, l, r)): its two binary
+/// Source: Handle, is_leaf(h), half_area(h), children(h, l, r), and
+/// prefetch_children(h), a hint that h may be opened next): its two binary
 /// children, then the child of largest area (the first of equals) opened
 /// into its two until there are `Width` children or only leaves, as
 /// `is_leaf(i)` says (binary leaves, or whatever else the layout keeps
@@ -35,6 +36,7 @@ int open_largest(const Source &source, typename Source::Handle root, typename So
     int m = 0;
     const auto join = [&](int k, Handle node) {
         kids[k] = node;
+        source.prefetch_children(node);
         area[k] = source.half_area(node);
         leaf[k] = source.is_leaf(node);
     };
@@ -75,6 +77,8 @@ int open_largest(const Source &source, typename Source::Handle root, typename So
 struct EmittedShape {
     using Handle = uint32_t;
     const Node *nodes;
+    /// The emitted children lie next to their parent's siblings: no hint.
+    void prefetch_children(uint32_t) const {}
     float half_area(uint32_t i) const { return nodes[i].box.half_area(); }
     void children(uint32_t i, uint32_t &l, uint32_t &r) const {
         l = nodes[i].first;
