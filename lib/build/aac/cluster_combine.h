@@ -68,14 +68,15 @@ private:
 /// kSmallCombine clusters (kWideSmallCombine with the AVX2 kernel,
 /// kWideSmallCombine512 with AVX-512, build/aac/combine_small.h), one over a
 /// cached distance matrix up to kMatrixCombine (never with those kernels),
-/// and one that recomputes rows beyond. Each merges slot a, the lowest slot at the smallest nearest
-/// distance, with its recorded nearest neighbour. Combines of at most
-/// kFewCombine clusters (with every kernel) and those that make one merge
-/// take instead the first pair (a, b) in slot order at the smallest distance,
-/// by scanning all live pairs: the same pair unless distances tie, where the
-/// recorded neighbour can be another (docs/PERFORMANCE.md, row 112). `variant`
-/// picks a loop for tests (Small beyond its limit runs the matrix; Small at
-/// most kFewCombine the pair scan); builds pass Automatic.
+/// and one that recomputes rows beyond. Each merges slot a, the lowest slot
+/// at the smallest nearest distance, with its recorded nearest neighbour.
+/// Combines of at most kFewCombine clusters (with every kernel) and those
+/// that make one merge take instead the first pair (a, b) in slot order at
+/// the smallest distance, by scanning all live pairs: the same pair unless
+/// distances tie, where the recorded neighbour can be another
+/// (docs/PERFORMANCE.md, row 112). `variant` picks a loop for tests (Small
+/// beyond its limit runs the matrix; Small at most kFewCombine the pair
+/// scan); builds pass Automatic.
 enum class CombineVariant { Automatic, Small, Matrix, Rows };
 constexpr uint32_t kSmallCombine = 16;
 constexpr uint32_t kFewCombine = 8;
