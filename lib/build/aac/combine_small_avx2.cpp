@@ -53,6 +53,8 @@ template <int kVectors> struct SmallCombine {
         nn[i] = -1;
     }
 
+    void unite_into(Box &out, uint32_t a, uint32_t b) const { out = unite(get(a), get(b)); }
+
     /// The greedy loop's slot moves after a merge (combine_small_loop.inl).
     void move_slots(uint32_t a, const Box &box, uint32_t b, uint32_t last) {
         if (b != last) {

@@ -65,7 +65,7 @@ template <int kVectors> struct SmallCombine512 {
     }
 
     void set(uint32_t i, const Box &b) {
-        box[i] = b;
+        copy_box(i, b);
         for (int k = 0; k < 3; ++k) {
             col[k][i] = b.lo[k];
             col[k + 3][i] = b.hi[k];
@@ -87,11 +87,31 @@ template <int kVectors> struct SmallCombine512 {
         _mm512_store_si512(at, _mm512_mask_set1_epi32(_mm512_load_si512(at), __mmask16(1u << (i & 15)), value));
     }
     void replace(uint32_t i, const Box &b) {
-        box[i] = b;
+        copy_box(i, b);
         for (int k = 0; k < 3; ++k) {
             put(col[k], i, b.lo[k]);
             put(col[k + 3], i, b.hi[k]);
         }
+    }
+
+    /// unite(box[a], box[b]) into `out` by two register stores (the first
+    /// four floats, then the last two), as the boxes were written: the box
+    /// made by one-float stores and copied whole was read back by wider
+    /// loads than its stores (docs/PERFORMANCE.md, row 161). The same bits
+    /// as unite(): b taken only where it is below, or above, a.
+    void unite_into(Box &out, uint32_t a, uint32_t b) const {
+        const __m128 ra = _mm_loadu_ps(box[a].lo), rb = _mm_loadu_ps(box[b].lo); // lo x, y, z, hi x
+        const __m128 head = _mm_blend_ps(_mm_min_ps(rb, ra), _mm_max_ps(rb, ra), 0x8);
+        const __m128 ya = _mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i *>(box[a].hi + 1)));
+        const __m128 yb = _mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i *>(box[b].hi + 1)));
+        _mm_storeu_ps(out.lo, head);
+        _mm_storel_epi64(reinterpret_cast<__m128i *>(out.hi + 1), _mm_castps_si128(_mm_max_ps(yb, ya)));
+    }
+    /// box[i] = b by the same two register stores.
+    void copy_box(uint32_t i, const Box &b) {
+        _mm_storeu_ps(box[i].lo, _mm_loadu_ps(b.lo));
+        _mm_storel_epi64(reinterpret_cast<__m128i *>(box[i].hi + 1),
+                         _mm_loadl_epi64(reinterpret_cast<const __m128i *>(b.hi + 1)));
     }
 
     /// The greedy loop's slot moves after a merge (combine_small_loop.inl),

@@ -3,6 +3,8 @@
 // region, after it has defined its register state S:
 //   float nd[]; int32_t nn[];
 //   void set(uint32_t slot, const Box &); Box get(uint32_t slot) const;
+//   void unite_into(Box &out, uint32_t a, uint32_t b) const;  the union of
+//     slots a and b (unite()'s bits) written to out;
 //   static uint32_t padded(uint32_t count);  the lanes its loops read;
 //   void retire(uint32_t slot);  a lane past the live slots (kFarBox);
 //   void move_slots(uint32_t a, const Box &, uint32_t b, uint32_t last);  after
@@ -42,8 +44,8 @@ uint32_t greedy_loop(S &s, BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, 
         if (a > b) std::swap(a, b);
 
         const uint32_t node = free_ids[used++];
-        const Box merged = unite(s.get(a), s.get(b));
-        tree.boxes[node] = merged;
+        Box &merged = tree.boxes[node];
+        s.unite_into(merged, a, b);
         tree.set_children(node, ids[a], ids[b]);
         choices.set(node - n, rule.inner(merged, cluster_choice(tree, rule, choices, ids[a]),
                                          cluster_choice(tree, rule, choices, ids[b])));
