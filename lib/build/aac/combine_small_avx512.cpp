@@ -53,7 +53,6 @@ template <int kVectors> struct SmallCombine512 {
     Box box[kLanes];
     __m512 scale;
 
-    Box get(uint32_t i) const { return box[i]; }
     /// The lanes that the loops below read (all of them).
     static uint32_t padded(uint32_t) { return kLanes; }
 

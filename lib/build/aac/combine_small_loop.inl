@@ -1,8 +1,8 @@
 // The greedy loop of the SIMD small combines, included by each kernel's file
 // (combine_small_avx2.cpp, combine_small_avx512.cpp) inside its own target
 // region, after it has defined its register state S:
-//   float nd[]; int32_t nn[];
-//   void set(uint32_t slot, const Box &); Box get(uint32_t slot) const;
+//   int32_t nn[];  each live slot's nearest neighbour (nd[] its distance);
+//   void set(uint32_t slot, const Box &);  the initial fill;
 //   void unite_into(Box &out, uint32_t a, uint32_t b) const;  the union of
 //     slots a and b (unite()'s bits) written to out;
 //   static uint32_t padded(uint32_t count);  the lanes its loops read;
