@@ -14,10 +14,14 @@
 #include "bvh_object.h"
 #include "core/error.h"
 #include "core/scheduler.h"
+#include "core/scratch_arena.h"
 
 struct aacbvh_context {
     explicit aacbvh_context(unsigned threads) : scheduler(threads) {}
     aacbvh::Scheduler scheduler;
+    /// Builds keep a few scratch slabs for the next ones while a context
+    /// lives (core/scratch_arena.h).
+    aacbvh::ScratchArena::ReserveUser scratch_reserve;
 };
 
 struct aacbvh_bvh {

@@ -152,6 +152,10 @@ void BvhObject::build() {
     } building(building_);
     const auto start = std::chrono::steady_clock::now();
     const KeptMemory kept(kept_blocks_, params.keep_build_memory);
+    // The build's mid-size scratch in huge-page slabs (core/scratch_arena.h);
+    // the arrays the handle keeps are made with it set aside.
+    ScratchArena scratch;
+    const ScratchArena::Scope scratch_scope(&scratch);
 
     BuildContext ctx(scheduler_, progress_, progress_user_);
     ctx.report(0.0);
@@ -183,6 +187,7 @@ void BvhObject::build() {
             if (!decided) choose_subtrees(tree, rule, ctx, choices);
             // AACBVH_PARAM_OPTIMIZE_PASSES: part of the build, its time and its built_sah_cost.
             if (params.optimize_passes > 0) optimize_tree(tree, rule, choices, params.optimize_passes, ctx, 0.8, 0.9);
+            const ScratchArena::Pause handle_arrays;
             if (straight) {
                 make_compact_layouts(tree, rule, choices, ctx, result, layouts);
                 made = true;
@@ -190,6 +195,7 @@ void BvhObject::build() {
                 emit_bvh(tree, rule, choices, ctx, result);
             }
         }
+        const ScratchArena::Pause layout_arrays;
         if (!made) make_layouts(result, layouts);
     }
     ctx.report(1.0);

@@ -8,6 +8,10 @@
 // of per 4 KiB), as Embree does for its build memory, and their pages are
 // mapped when the block is (one call instead of a fault for each).
 //
+// Arrays from 256 KiB to 2 MiB that a build makes on its calling thread come
+// from huge-page slabs instead (core/scratch_arena.h), unless they are the
+// handle's; smaller arrays from `operator new`.
+//
 // With a BlockCache installed on the thread (core/block_cache.h), big blocks
 // are taken from it (a kept block of about the size asked for, else the front
 // of a bigger one) and given back to it instead of the system. Every build
@@ -27,6 +31,7 @@
 #include <vector>
 
 #include "core/block_cache.h"
+#include "core/scratch_arena.h"
 
 namespace aacbvh {
 
@@ -131,8 +136,11 @@ void free_system_block(void *p, size_t rounded_bytes) noexcept;
 inline void *allocate_build_memory(size_t bytes, size_t align = alignof(std::max_align_t)) {
     testing::check_allocation();
     if (MemoryMeter *m = MemoryMeter::current()) m->add(int64_t(bytes));
-    if (bytes < kHugePageBytes)
+    if (bytes < kHugePageBytes) {
+        if (bytes >= ScratchArena::kScratchFrom)
+            if (ScratchArena *arena = ScratchArena::current()) return arena->allocate(bytes);
         return over_aligned(align) ? ::operator new(bytes, std::align_val_t(align)) : ::operator new(bytes);
+    }
     const size_t rounded = round_to_block(bytes);
     if (BlockCache *cache = BlockCache::current()) {
         if (void *kept = cache->take(rounded)) return kept;
@@ -144,6 +152,8 @@ inline void *allocate_build_memory(size_t bytes, size_t align = alignof(std::max
 inline void free_build_memory(void *p, size_t bytes, size_t align = alignof(std::max_align_t)) {
     if (!p) return;
     if (MemoryMeter *m = MemoryMeter::current()) m->add(-int64_t(bytes));
+    if (bytes >= ScratchArena::kScratchFrom && bytes < kHugePageBytes && ScratchArena::release(p, bytes))
+        return;
     if (bytes < kHugePageBytes && over_aligned(align))
         ::operator delete(p, std::align_val_t(align));
     else if (bytes < kHugePageBytes)

@@ -1,0 +1,221 @@
+// Unit tests of the build's scratch slabs (lib/core/scratch_arena.h): which
+// arrays come from them, that arrays never overlap and keep their contents,
+// that a slab comes back whatever thread frees its arrays and whether or not
+// its arena still lives, that a build leaves none behind and keeps no array of
+// the handle in one, and that the memory goes back to the system.
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+// This cmocka.h has no extern "C" guard of its own.
+extern "C" {
+#include <cmocka.h>
+}
+
+#include <algorithm>
+#include <cstring>
+#include <random>
+#include <thread>
+#include <vector>
+
+#include "bvh_object.h"
+#include "core/block_cache.h"
+#include "core/memory.h"
+#include "core/scheduler.h"
+#include "core/scratch_arena.h"
+#include "random_soup.h" // set_soup
+
+using aacbvh::ScratchArena;
+using aacbvh_test::set_soup;
+
+namespace {
+
+constexpr size_t kKiB = 1024;
+
+struct Piece {
+    unsigned char *p;
+    size_t bytes;
+    unsigned char tag;
+};
+
+void fill(const Piece &x) { std::memset(x.p, x.tag, x.bytes); }
+bool intact(const Piece &x) {
+    for (size_t i = 0; i < x.bytes; i += 509)
+        if (x.p[i] != x.tag) return false;
+    return x.p[x.bytes - 1] == x.tag;
+}
+
+/// Sizes from the threshold to just under 2 MiB, made and freed in a random
+/// order: every array of the threshold's size and up (under 2 MiB) lies in a
+/// slab, none overlaps another (each keeps its own bytes), smaller ones and
+/// those made with the arena paused do not, and when the arena goes every
+/// slab goes back to the system.
+void test_random_sizes(void **) {
+    const int64_t held = aacbvh::testing::system_block_bytes.load();
+    std::mt19937 rng(7);
+    std::uniform_int_distribution<size_t> size(ScratchArena::kScratchFrom, aacbvh::kHugePageBytes - 1);
+    {
+        ScratchArena arena;
+        const ScratchArena::Scope scope(&arena);
+        std::vector<Piece> live;
+        unsigned char tag = 1;
+        for (int step = 0; step < 400; ++step) {
+            if (live.size() < 12 && (live.empty() || rng() % 3 != 0)) {
+                const size_t bytes = step % 7 == 0 ? ScratchArena::kScratchFrom : size(rng);
+                Piece x{static_cast<unsigned char *>(aacbvh::allocate_build_memory(bytes)), bytes, tag++};
+                if (tag == 0) tag = 1;
+                assert_true(ScratchArena::holds(x.p));
+                assert_true(ScratchArena::holds(x.p + bytes - 1));
+                fill(x);
+                live.push_back(x);
+            } else {
+                const size_t k = rng() % live.size();
+                for (const Piece &x : live) assert_true(intact(x));
+                aacbvh::free_build_memory(live[k].p, live[k].bytes);
+                live.erase(live.begin() + long(k));
+            }
+        }
+        void *small = aacbvh::allocate_build_memory(ScratchArena::kScratchFrom - 1);
+        assert_false(ScratchArena::holds(small));
+        aacbvh::free_build_memory(small, ScratchArena::kScratchFrom - 1);
+        {
+            const ScratchArena::Pause pause;
+            void *kept = aacbvh::allocate_build_memory(256 * kKiB);
+            assert_false(ScratchArena::holds(kept));
+            aacbvh::free_build_memory(kept, 256 * kKiB);
+        }
+        for (const Piece &x : live) {
+            assert_true(intact(x));
+            aacbvh::free_build_memory(x.p, x.bytes);
+        }
+        assert_true(ScratchArena::live_slabs() > 0); // kept for reuse until the arena goes
+    }
+    assert_int_equal(ScratchArena::live_slabs(), 0);
+    assert_int_equal(aacbvh::testing::system_block_bytes.load(), held);
+}
+
+/// Freed pages serve the next arrays: the same sizes made and freed a
+/// thousand times map one slab.
+void test_reuse(void **) {
+    const int64_t mapped = aacbvh::testing::system_block_mapped.load();
+    {
+        ScratchArena arena;
+        const ScratchArena::Scope scope(&arena);
+        for (int i = 0; i < 1000; ++i) {
+            void *a = aacbvh::allocate_build_memory(300 * kKiB);
+            void *b = aacbvh::allocate_build_memory(700 * kKiB);
+            aacbvh::free_build_memory(a, 300 * kKiB);
+            aacbvh::free_build_memory(b, 700 * kKiB);
+        }
+        assert_int_equal(ScratchArena::live_slabs(), 1);
+    }
+    assert_int_equal(aacbvh::testing::system_block_mapped.load() - mapped, int64_t(aacbvh::kHugePageBytes));
+}
+
+/// An array freed on another thread, and one that outlives its arena: its
+/// slab stays until the array goes, then returns to the system.
+void test_other_thread_and_orphan(void **) {
+    const int64_t held = aacbvh::testing::system_block_bytes.load();
+    void *orphan = nullptr;
+    {
+        ScratchArena arena;
+        const ScratchArena::Scope scope(&arena);
+        void *p = aacbvh::allocate_build_memory(512 * kKiB);
+        std::thread([p] { aacbvh::free_build_memory(p, 512 * kKiB); }).join();
+        orphan = aacbvh::allocate_build_memory(384 * kKiB);
+        std::memset(orphan, 3, 384 * kKiB);
+    }
+    assert_int_equal(ScratchArena::live_slabs(), 1);
+    assert_true(ScratchArena::holds(orphan));
+    assert_int_equal(static_cast<unsigned char *>(orphan)[384 * kKiB - 1], 3);
+    std::thread([orphan] { aacbvh::free_build_memory(orphan, 384 * kKiB); }).join();
+    assert_int_equal(ScratchArena::live_slabs(), 0);
+    assert_int_equal(aacbvh::testing::system_block_bytes.load(), held);
+}
+
+/// A build's slabs are gone when it returns, none of the handle's arrays
+/// lies in one, and the handle's later work (rebuilds with and without kept
+/// memory, stats, a refit, an optimisation, destruction) leaves none and
+/// gives back every block.
+void test_builds_leave_no_slab(void **) {
+    aacbvh::Scheduler scheduler(2);
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    std::vector<float> vertices(9 * 60000);
+    for (float &v : vertices) v = u(rng);
+    const int64_t held = aacbvh::testing::system_block_bytes.load();
+    {
+        aacbvh::BvhObject object(scheduler);
+        set_soup(object, vertices);
+        for (int builder : {AACBVH_BUILDER_AAC_HQ, AACBVH_BUILDER_AAC_FAST, AACBVH_BUILDER_BINNED_SAH}) {
+            for (int keep : {0, 1}) {
+                object.set_param_int(AACBVH_PARAM_BUILDER, builder);
+                object.set_param_int(AACBVH_PARAM_KEEP_BUILD_MEMORY, keep);
+                const size_t made = ScratchArena::slabs_made();
+                object.build();
+                assert_true(ScratchArena::slabs_made() > made); // its scratch used them
+                assert_int_equal(ScratchArena::live_slabs(), 0);
+                aacbvh_stats stats{};
+                stats.struct_size = sizeof stats;
+                object.stats(stats);
+                assert_true(stats.build_peak_bytes > 0);
+            }
+        }
+        object.refit();
+        object.optimize(1);
+        object.with_tree([](const aacbvh::Bvh &tree) { assert_true(!tree.prim_ids.empty()); });
+        assert_int_equal(ScratchArena::live_slabs(), 0);
+    }
+    assert_int_equal(aacbvh::testing::system_block_bytes.load(), held);
+}
+
+/// While a ReserveUser lives, the slabs a build frees serve the next build
+/// (no new mapping for them), at most ScratchArena::kReserveSlabs are kept,
+/// and when the last user goes they are freed.
+void test_reserve(void **) {
+    aacbvh::Scheduler scheduler(1);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    std::vector<float> vertices(9 * 200000);
+    for (float &v : vertices) v = u(rng);
+    const int64_t held = aacbvh::testing::system_block_bytes.load();
+    {
+        aacbvh::BvhObject object(scheduler);
+        set_soup(object, vertices);
+        object.build(); // no user: nothing kept
+        assert_int_equal(ScratchArena::reserved_slabs(), 0);
+        const ScratchArena::ReserveUser user;
+        {
+            const ScratchArena::ReserveUser second; // users nest
+        }
+        object.build();
+        const size_t kept = ScratchArena::reserved_slabs();
+        assert_true(kept > 0);
+        assert_true(kept <= ScratchArena::kReserveSlabs);
+        const int64_t before = aacbvh::testing::system_block_mapped.load();
+        const int64_t before_held = aacbvh::testing::system_block_bytes.load();
+        object.build();
+        assert_int_equal(ScratchArena::reserved_slabs(), kept);
+        // Mapped anew: the handle's own arrays and what the reserve did not
+        // hold, never the reserve's slabs again; what is held stays put.
+        assert_true(aacbvh::testing::system_block_mapped.load() - before <=
+                    int64_t(object.kept_build_bytes()) + 40 * int64_t(aacbvh::kHugePageBytes));
+        assert_int_equal(aacbvh::testing::system_block_bytes.load(), before_held);
+    }
+    assert_int_equal(ScratchArena::reserved_slabs(), 0);
+    assert_int_equal(ScratchArena::live_slabs(), 0);
+    assert_int_equal(aacbvh::testing::system_block_bytes.load(), held);
+}
+
+} // namespace
+
+int main() {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_random_sizes),
+        cmocka_unit_test(test_reuse),
+        cmocka_unit_test(test_other_thread_and_orphan),
+        cmocka_unit_test(test_builds_leave_no_slab),
+        cmocka_unit_test(test_reserve),
+    };
+    return cmocka_run_group_tests(tests, nullptr, nullptr);
+}
