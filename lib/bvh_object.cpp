@@ -464,6 +464,8 @@ void BvhObject::optimize(uint32_t passes) {
         ~Building() { flag = false; }
     } building(building_);
     const KeptMemory kept(kept_blocks_, params.keep_build_memory);
+    ScratchArena scratch; // as in build()
+    const ScratchArena::Scope scratch_scope(&scratch);
     BuildContext ctx(scheduler_, progress_, progress_user_);
     ctx.report(0.0);
     if (passes == 0 || bvh_.prim_ids.size() < 3) { // fewer than three primitives: one topology
@@ -484,6 +486,7 @@ void BvhObject::optimize(uint32_t passes) {
         SubtreeChoices choices;
         choose_subtrees(tree, rule, ctx, choices);
         optimize_tree(tree, rule, choices, passes, ctx, 0.1, 0.85);
+        const ScratchArena::Pause handle_arrays;
         emit_bvh(tree, rule, choices, ctx, result);
     }
     // The SAH as stats report it never rises: a tree that would cost more
@@ -496,7 +499,10 @@ void BvhObject::optimize(uint32_t passes) {
         return;
     }
     Layouts layouts;
-    make_layouts(result, layouts);
+    {
+        const ScratchArena::Pause handle_arrays;
+        make_layouts(result, layouts);
+    }
     ctx.report(1.0);
 
     bvh_ = std::move(result);
