@@ -23,9 +23,10 @@ extern "C" {
 #include "core/memory.h"
 #include "core/scheduler.h"
 #include "core/scratch_arena.h"
-#include "random_soup.h" // set_soup
+#include "random_soup.h" // random_soup, set_soup
 
 using aacbvh::ScratchArena;
+using aacbvh_test::random_soup;
 using aacbvh_test::set_soup;
 
 namespace {
@@ -139,10 +140,7 @@ void test_other_thread_and_orphan(void **) {
 /// gives back every block.
 void test_builds_leave_no_slab(void **) {
     aacbvh::Scheduler scheduler(2);
-    std::mt19937 rng(11);
-    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-    std::vector<float> vertices(9 * 60000);
-    for (float &v : vertices) v = u(rng);
+    const std::vector<float> vertices = random_soup(60000, 11);
     const int64_t held = aacbvh::testing::system_block_bytes.load();
     {
         aacbvh::BvhObject object(scheduler);
@@ -174,10 +172,7 @@ void test_builds_leave_no_slab(void **) {
 /// and when the last user goes they are freed.
 void test_reserve(void **) {
     aacbvh::Scheduler scheduler(1);
-    std::mt19937 rng(5);
-    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-    std::vector<float> vertices(9 * 200000);
-    for (float &v : vertices) v = u(rng);
+    const std::vector<float> vertices = random_soup(200000, 5);
     const int64_t held = aacbvh::testing::system_block_bytes.load();
     {
         aacbvh::BvhObject object(scheduler);

@@ -137,7 +137,7 @@ inline void *allocate_build_memory(size_t bytes, size_t align = alignof(std::max
     testing::check_allocation();
     if (MemoryMeter *m = MemoryMeter::current()) m->add(int64_t(bytes));
     if (bytes < kHugePageBytes) {
-        if (bytes >= ScratchArena::kScratchFrom)
+        if (bytes >= ScratchArena::kScratchFrom && align <= ScratchArena::kAlignment)
             if (ScratchArena *arena = ScratchArena::current()) return arena->allocate(bytes);
         return over_aligned(align) ? ::operator new(bytes, std::align_val_t(align)) : ::operator new(bytes);
     }

@@ -36,6 +36,9 @@ public:
     /// smaller scenes' arrays would leave most of a slab unused, and its
     /// mapping cost more than their faults.
     static constexpr size_t kScratchFrom = size_t(1) << 18;
+    /// The alignment its arrays get (each starts at a 64-byte multiple within
+    /// its first page); arrays of types aligned more come from elsewhere.
+    static constexpr size_t kAlignment = 64;
     /// Free slabs kept between builds, at most (2 MiB each).
     static constexpr size_t kReserveSlabs = 8;
 
