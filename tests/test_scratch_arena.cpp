@@ -95,6 +95,35 @@ void test_random_sizes(void **) {
     assert_int_equal(aacbvh::testing::system_block_bytes.load(), held);
 }
 
+/// Arrays of nearly a whole slab, whatever colour their turn gives them,
+/// each take a slab of their own and keep all their bytes.
+void test_whole_slabs(void **) {
+    const int64_t held = aacbvh::testing::system_block_bytes.load();
+    {
+        ScratchArena arena;
+        const ScratchArena::Scope scope(&arena);
+        std::vector<Piece> live;
+        for (unsigned char tag = 1; tag <= 70; ++tag) { // more turns than colours
+            const size_t bytes = aacbvh::kHugePageBytes - 1 - (tag % 3) * 100;
+            Piece x{static_cast<unsigned char *>(aacbvh::allocate_build_memory(bytes)), bytes, tag};
+            assert_true(ScratchArena::holds(x.p) && ScratchArena::holds(x.p + bytes - 1));
+            fill(x);
+            live.push_back(x);
+            if (live.size() > 3) {
+                for (const Piece &y : live) assert_true(intact(y));
+                aacbvh::free_build_memory(live.front().p, live.front().bytes);
+                live.erase(live.begin());
+            }
+        }
+        for (const Piece &x : live) {
+            assert_true(intact(x));
+            aacbvh::free_build_memory(x.p, x.bytes);
+        }
+    }
+    assert_int_equal(ScratchArena::live_slabs(), 0);
+    assert_int_equal(aacbvh::testing::system_block_bytes.load(), held);
+}
+
 /// Freed pages serve the next arrays: the same sizes made and freed a
 /// thousand times map one slab.
 void test_reuse(void **) {
@@ -207,6 +236,7 @@ void test_reserve(void **) {
 int main() {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_random_sizes),
+        cmocka_unit_test(test_whole_slabs),
         cmocka_unit_test(test_reuse),
         cmocka_unit_test(test_other_thread_and_orphan),
         cmocka_unit_test(test_builds_leave_no_slab),

@@ -120,7 +120,8 @@ size_t round_to_pages(size_t bytes) { return (bytes + kPageBytes - 1) & ~(kPageB
 void *ScratchArena::allocate(size_t bytes) {
     // Each array starts at its own 64-byte multiple within its first page,
     // so that arrays read side by side do not share cache sets.
-    const size_t color = size_t((next_color_++ * 11u) % 64u) * 64u;
+    size_t color = size_t((next_color_++ * 11u) % 64u) * 64u;
+    if (bytes + color > kSlabBytes) color = 0; // no room for it in a slab
     const size_t want = round_to_pages(bytes + color);
     Registry &r = registry();
     {
