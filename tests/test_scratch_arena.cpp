@@ -196,6 +196,36 @@ void test_builds_leave_no_slab(void **) {
     assert_int_equal(aacbvh::testing::system_block_bytes.load(), held);
 }
 
+/// Arrays made from inside a build's progress callback (another handle's
+/// work, say) are the caller's, not the build's scratch: none comes from a
+/// slab.
+struct CallbackProbe {
+    int calls = 0;
+    int in_slab = 0;
+};
+bool probe_allocation(void *user, double) {
+    CallbackProbe &probe = *static_cast<CallbackProbe *>(user);
+    ++probe.calls;
+    void *p = aacbvh::allocate_build_memory(512 * kKiB);
+    if (ScratchArena::holds(p)) ++probe.in_slab;
+    aacbvh::free_build_memory(p, 512 * kKiB);
+    return true;
+}
+
+void test_callback_arrays_are_not_scratch(void **) {
+    aacbvh::Scheduler scheduler(1);
+    const std::vector<float> vertices = random_soup(100000, 3);
+    aacbvh::BvhObject object(scheduler);
+    set_soup(object, vertices);
+    CallbackProbe probe;
+    object.set_progress(probe_allocation, &probe);
+    object.build();
+    object.optimize(1);
+    assert_true(probe.calls > 2);
+    assert_int_equal(probe.in_slab, 0);
+    assert_int_equal(ScratchArena::live_slabs(), 0);
+}
+
 /// While a ReserveUser lives, the slabs a build frees serve the next build
 /// (no new mapping for them), at most ScratchArena::kReserveSlabs are kept,
 /// and when the last user goes they are freed.
@@ -240,6 +270,7 @@ int main() {
         cmocka_unit_test(test_reuse),
         cmocka_unit_test(test_other_thread_and_orphan),
         cmocka_unit_test(test_builds_leave_no_slab),
+        cmocka_unit_test(test_callback_arrays_are_not_scratch),
         cmocka_unit_test(test_reserve),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);

@@ -10,6 +10,7 @@
 #include "aacbvh/aacbvh.h"
 #include "core/error.h"
 #include "core/scheduler.h"
+#include "core/scratch_arena.h"
 
 namespace aacbvh {
 
@@ -64,7 +65,13 @@ public:
         if (progress_ && !in_callback_) {
             last_call_ = std::chrono::steady_clock::now();
             in_callback_ = true;
-            const bool go_on = progress_(user_, fraction);
+            bool go_on;
+            {
+                // What the library allocates for the callback (another
+                // handle's refit, its nodes) is not this build's scratch.
+                const ScratchArena::Pause callers_arrays;
+                go_on = progress_(user_, fraction);
+            }
             in_callback_ = false;
             if (!go_on) {
                 cancelled_.store(true, std::memory_order_relaxed);
