@@ -113,8 +113,6 @@ void unlink(Registry &r, ScratchArena::Slab *slab) {
         }
 }
 
-size_t round_to_pages(size_t bytes) { return (bytes + kPageBytes - 1) & ~(kPageBytes - 1); }
-
 } // namespace
 
 void *ScratchArena::allocate(size_t bytes) {
@@ -122,8 +120,9 @@ void *ScratchArena::allocate(size_t bytes) {
     // so that arrays read side by side do not share cache sets.
     size_t color = size_t((next_color_++ * 11u) % 64u) * 64u;
     if (bytes + color > kSlabBytes) color = 0; // no room for it in a slab
-    const size_t want = round_to_pages(bytes + color);
+    const size_t want = round_to_block(bytes + color);
     Registry &r = registry();
+    void *memory = nullptr;
     {
         std::lock_guard<std::mutex> lock(r.mutex);
         Slab *best = nullptr;
@@ -136,12 +135,8 @@ void *ScratchArena::allocate(size_t bytes) {
             }
         }
         if (best) return static_cast<char *>(best->cut(best_i, want)) + color;
-    }
-    // A new slab: one kept from an earlier build, a block this build freed,
-    // else the system's (the block cache is this thread's alone).
-    void *memory = nullptr;
-    {
-        std::lock_guard<std::mutex> lock(r.mutex);
+        // A new slab: one kept from an earlier build, a block this build
+        // freed, else the system's (the block cache is this thread's alone).
         if (r.reserved > 0) memory = r.reserve[--r.reserved];
     }
     if (!memory)
@@ -180,7 +175,7 @@ bool ScratchArena::release(void *p, size_t bytes) noexcept {
         while (slab && !slab->holds(p)) slab = slab->next;
         if (!slab) return false;
         const size_t offset = size_t(static_cast<char *>(p) - slab->base), color = offset & (kPageBytes - 1);
-        slab->give_back(offset - color, round_to_pages(bytes + color));
+        slab->give_back(offset - color, round_to_block(bytes + color));
         if (slab->arrays == 0 && !slab->owner) {
             unlink(r, slab);
             orphan = slab;
