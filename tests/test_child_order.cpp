@@ -1,21 +1,26 @@
 // The closest-hit child order on hand-made trees, in every layout (the binary
-// traversal in lib/trace/traversal.cpp, WIDE4 and WIDE8 with each kernel):
-// the child entered nearer is visited first; when both are entered at the
-// same distance (the ray starts inside both boxes) the smaller box comes
-// first, whichever side it is on. The order shows in the work a query does:
-// the hit found in the first child prunes the other child's subtree.
+// traversal in lib/trace/traversal.cpp, WIDE4 and WIDE8 with each kernel),
+// the rule of lib/trace/child_order.h: the child entered nearer is visited
+// first; children that hold the ray's origin (entered at tmin) come first,
+// by their exit distance, the box left sooner first; of equal keys the
+// smaller box first, whichever side it is on. The order shows in the work a
+// query does: the hit found in the first child prunes the other child's
+// subtree.
 //
-// The trees: the root's children are a small leaf S (one triangle at z = 1)
-// and a large inner node L (a leaf with a triangle at z = 10, whose box
-// starts at z = 9.9, and a leaf off the ray's path), on either side. From
-// the origin along +z, both root children hold the origin: smaller first
-// finds z = 1 and never tests the far triangle (1 triangle test); larger
-// first tests the far one too (2). From z = -20 the large box is entered
-// first (t = 15 against 19.5), and its far triangle is tested before the
-// small box is reached (2 tests), although the small box is smaller.
-// test_every_layout_visits_alike makes the same case survive the wide
-// layouts' collapse (see make_wide_case()) and asks every layout for the
-// same count of triangle tests.
+// The first trees: the root's children are a small leaf S (one triangle at
+// z = 1) and a large inner node L (a leaf with a triangle at z = 10, whose
+// box starts at z = 9.9, and a leaf off the ray's path), on either side,
+// both boxes ending at z = 20. From the origin along +z, both root children
+// hold the origin and are left at the same distance: smaller first finds
+// z = 1 and never tests the far triangle (1 triangle test); larger first
+// tests the far one too (2). From z = -20 the large box is entered first
+// (t = 15 against 19.5), and its far triangle is tested before the small box
+// is reached (2 tests), although the small box is smaller.
+// test_every_layout_visits_alike makes such cases survive the wide layouts'
+// collapse (see make_wide_case()) and asks every layout for the same count
+// of triangle tests, with a second case where the larger box around the
+// origin is left sooner and holds the nearer hit: the exit decides, not the
+// size.
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -25,8 +30,11 @@ extern "C" {
 #include <cmocka.h>
 }
 
+#include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <vector>
 
 #include "bvh/bvh.h"
@@ -34,6 +42,7 @@ extern "C" {
 #include "bvh/wide_bvh.h"
 #include "core/geometry.h"
 #include "core/scheduler.h"
+#include "trace/child_order.h"
 #include "trace/traversal.h"
 #include "trace/wide8_traversal.h"
 #include "trace/wide_traversal.h"
@@ -68,7 +77,7 @@ aacbvh::Bvh make_tree(bool small_left) {
     bvh.nodes.resize(5);
     bvh.prim_ids.resize(3);
     for (uint32_t i = 0; i < 3; ++i) bvh.prim_ids[i] = i;
-    const aacbvh::Node small = node(-1, -1, -0.5f, 1, 1, 1, 0, 1);
+    const aacbvh::Node small = node(-1, -1, -0.5f, 1, 1, 20, 0, 1);
     const aacbvh::Node large = node(-10, -10, -5, 10, 10, 20, 3, 0);
     bvh.nodes[0] = node(-10, -10, -5, 10, 10, 20, 1, 0);
     bvh.nodes[1] = small_left ? small : large;
@@ -102,16 +111,50 @@ uint64_t triangle_tests(const aacbvh::Bvh &bvh, float z0) {
     return counters.primitive_tests;
 }
 
-/// Both children hold the origin (a tie at tmin): the smaller box first, on
-/// either side.
+/// Both children hold the origin and are left at the same distance (a tie
+/// of keys): the smaller box first, on either side.
 void test_tie_goes_to_the_smaller_box(void **) {
     for (bool small_left : {true, false}) {
         const aacbvh::Bvh bvh = make_tree(small_left);
         const uint64_t tests = triangle_tests(bvh, 0.0f);
         if (tests != 1)
-            fail_msg("origin inside both children, small box on the %s: %llu triangle tests, want 1 (small box first)",
+            fail_msg("origin inside both children, same exit, small box on the %s: %llu triangle tests, want 1 "
+                     "(small box first)",
                      small_left ? "left" : "right", (unsigned long long)tests);
     }
+}
+
+/// The key of a child holding the origin (trace/child_order.h): below every
+/// entry distance at or above tmin >= 0, and increasing with the exit, over
+/// exits from +0 to +inf (random bits and the extremes).
+void test_inside_keys_order_by_exit(void **) {
+    std::vector<float> exits = {0.0f, 0x1p-149f, FLT_MIN, 1e-30f, 0.5f, 1.0f, 1.0000001f, 3e38f, FLT_MAX, INFINITY};
+    uint32_t state = 12345u;
+    for (int i = 0; i < 2000; ++i) {
+        state = state * 1664525u + 1013904223u;
+        uint32_t bits = state % 0x7F800001u; // +0 .. +inf
+        float x;
+        std::memcpy(&x, &bits, sizeof x);
+        exits.push_back(x);
+    }
+    std::sort(exits.begin(), exits.end());
+    for (size_t i = 0; i < exits.size(); ++i) {
+        const float key = aacbvh::inside_order_key(exits[i]);
+        if (!(key < 0.0f) && !(key == 0.0f && std::signbit(key)))
+            fail_msg("exit %a: key %a is not negative", double(exits[i]), double(key));
+        if (!(key < 0x1p-149f)) fail_msg("exit %a: key %a not below the smallest positive entry", double(exits[i]), double(key));
+        if (i > 0 && exits[i] > exits[i - 1] && !(key > aacbvh::inside_order_key(exits[i - 1])))
+            fail_msg("exits %a < %a: keys %a, %a not increasing", double(exits[i - 1]), double(exits[i]),
+                     double(aacbvh::inside_order_key(exits[i - 1])), double(key));
+    }
+    assert_true(aacbvh::inside_order_key(0.0f) == -INFINITY);
+    // A box that ends exactly at the origin (exit -0) is still inside: its
+    // key must stay below tmin, or the traversal would prune it.
+    assert_true(aacbvh::inside_order_key(-0.0f) == -INFINITY);
+    // Entries above tmin keep their distance; at tmin the exit decides.
+    assert_true(aacbvh::child_order_key(2.0f, 5.0f, 1.0f) == 2.0f);
+    assert_true(aacbvh::child_order_key(1.0f, 5.0f, 1.0f) < aacbvh::child_order_key(1.0f, 6.0f, 1.0f));
+    assert_true(aacbvh::child_order_key(1.0f, 6.0f, 1.0f) < aacbvh::child_order_key(1.5f, 2.0f, 1.0f));
 }
 
 /// Outside both: the nearer entry first, although it is the larger box.
@@ -184,6 +227,64 @@ WideCase make_wide_case(bool small_left) {
     return c;
 }
 
+// The exit case: the same frame, but the box left sooner is the larger one.
+// S is now a thin inner node around the axis from z = -0.5 to 30 (area 252)
+// over a leaf with triangle 1 at z = 25 and a leaf off the path; X (area
+// 1,360) is flat, z from -5 to 2, over the leaf of triangle 0 at z = 1 and a
+// leaf off the path. U's boxes are flat too (z from -5 to 2), so T = (X, U)
+// is left at z = 2 as X is, and the binary traversal meets the same choice
+// at the root (S against T) as the wide layouts do (S against X). From the
+// origin: X first (left at t = 2, S at 30) finds t = 1, and S's far leaf
+// (entered at 24.9) is pruned: 1 triangle test; S first, the smaller box,
+// would test triangle 1 first (2). From z = -20: X is entered first (15
+// against 19.5), 1 test either way.
+// Leaf slots: 0 -> triangle 0 (in X), 1 -> triangle 1 (in S), 2 -> triangle
+// 2 (in S, off the path), 3 -> triangle 3 (in X, off the path), 4..11 ->
+// triangles 4..11 (U's leaves).
+WideCase make_exit_case(bool small_left) {
+    WideCase c;
+    const float tris[4][9] = {
+        {-0.5f, -0.5f, 1.0f, 0.5f, -0.5f, 1.0f, 0.0f, 0.5f, 1.0f},     // 0: on the path, z = 1
+        {-0.5f, -0.5f, 25.0f, 0.5f, -0.5f, 25.0f, 0.0f, 0.5f, 25.0f},  // 1: on the path, z = 25
+        {0.6f, 0.6f, -0.4f, 0.9f, 0.6f, -0.4f, 0.75f, 0.9f, -0.4f},   // 2: off the path, in S
+        {5.0f, -0.5f, -4.5f, 6.0f, -0.5f, -4.5f, 5.5f, 0.5f, -4.5f},   // 3: off the path, in X
+    };
+    for (const auto &t : tris) c.vertices.insert(c.vertices.end(), t, t + 9);
+    for (uint32_t j = 0; j < 8; ++j) {
+        const float x = 40.0f + 20.0f * float(j);
+        const float tri[9] = {x, 0.0f, 0.0f, x + 1.0f, 0.0f, 0.0f, x, 1.0f, 0.0f};
+        c.vertices.insert(c.vertices.end(), tri, tri + 9);
+    }
+    aacbvh::Bvh &bvh = c.bvh;
+    bvh.prim_ids.resize(12);
+    for (uint32_t i = 0; i < 12; ++i) bvh.prim_ids[i] = i;
+    // Nodes, children of an inner node at `first`, `first + 1`:
+    //  0 root: 1, 2 = S and T (or T and S); S: 21, 22; T: 3 = X, 4 = U
+    //  X: 5 (triangle 0), 6 (triangle 3)
+    //  U: 7, 8; 7: 9, 10; 8: 11, 12; 9..12: 13..20, leaves (triangles 4..11)
+    bvh.nodes.resize(23);
+    bvh.nodes[0] = node(-10, -100, -5, 200, 100, 30, 1, 0);
+    bvh.nodes[small_left ? 1 : 2] = node(-1, -1, -0.5f, 1, 1, 30, 21, 0);    // S
+    bvh.nodes[small_left ? 2 : 1] = node(-10, -100, -5, 200, 100, 2, 3, 0); // T
+    bvh.nodes[3] = node(-10, -10, -5, 10, 10, 2, 5, 0);                      // X
+    bvh.nodes[4] = node(30, -100, -5, 200, 100, 2, 7, 0);                    // U
+    bvh.nodes[5] = node(-0.5f, -0.5f, 0.9f, 0.5f, 0.5f, 1.1f, 0, 1);         // triangle 0
+    bvh.nodes[6] = node(5, -0.5f, -4.6f, 6, 0.5f, -4.4f, 3, 1);              // triangle 3
+    bvh.nodes[7] = node(30, -100, -5, 110, 100, 2, 9, 0);
+    bvh.nodes[8] = node(110, -100, -5, 200, 100, 2, 11, 0);
+    bvh.nodes[9] = node(30, -100, -5, 70, 100, 2, 13, 0);
+    bvh.nodes[10] = node(70, -100, -5, 110, 100, 2, 15, 0);
+    bvh.nodes[11] = node(110, -100, -5, 150, 100, 2, 17, 0);
+    bvh.nodes[12] = node(150, -100, -5, 200, 100, 2, 19, 0);
+    for (uint32_t j = 0; j < 8; ++j) {
+        const float x = 40.0f + 20.0f * float(j);
+        bvh.nodes[13 + j] = node(x, 0, 0, x + 1, 1, 0, 4 + j, 1);
+    }
+    bvh.nodes[21] = node(-0.5f, -0.5f, 24.9f, 0.5f, 0.5f, 25.1f, 1, 1);     // triangle 1
+    bvh.nodes[22] = node(0.6f, 0.6f, -0.45f, 0.9f, 0.9f, -0.35f, 2, 1);     // triangle 2
+    return c;
+}
+
 aacbvh::Geometry wide_geometry(const WideCase &c) {
     aacbvh::Geometry g = make_geometry();
     g.vertices = c.vertices.data();
@@ -214,17 +315,20 @@ void expect_tests(const char *layout, bool small_left, float z0, uint64_t tests,
                  small_left ? "left" : "right", double(z0), (unsigned long long)tests, (unsigned long long)want);
 }
 
-/// The same rule in every layout: from the origin (inside S and X, a tie)
-/// the smaller S first and 1 triangle test; from z = -20 the nearer X
-/// first and 2. The binary traversal, WIDE4 and WIDE8 with every kernel
-/// this CPU runs, on either side.
+/// The same rule in every layout. The first case: from the origin (inside
+/// S and X) S, left sooner, first and 1 triangle test; from z = -20 the
+/// nearer X first and 2. The exit case: from the origin X, larger but left
+/// sooner, first and 1 test; from z = -20 X, entered first, and 1. The
+/// binary traversal, WIDE4 and WIDE8 with every kernel this CPU runs, on
+/// either side.
 void test_every_layout_visits_alike(void **) {
     aacbvh::Scheduler scheduler(1);
     const aacbvh::TraceKernel original = aacbvh::trace_kernel();
     const float origin[3] = {0.0f, 0.0f, 0.0f};
     int wide8_kernels = 0;
-    for (bool small_left : {true, false}) {
-        const WideCase c = make_wide_case(small_left);
+    for (int variant = 0; variant < 4; ++variant) {
+        const bool small_left = (variant & 1) != 0, exit_case = variant >= 2;
+        const WideCase c = exit_case ? make_exit_case(small_left) : make_wide_case(small_left);
         const aacbvh::Geometry g = wide_geometry(c);
         aacbvh::WideBvh wide4;
         wide4.build(c.bvh, scheduler);
@@ -236,7 +340,7 @@ void test_every_layout_visits_alike(void **) {
         assert_true(four_keeps);
         assert_true(eight_keeps);
         for (float z0 : {0.0f, -20.0f}) {
-            const uint64_t want = z0 == 0.0f ? 1 : 2;
+            const uint64_t want = z0 == 0.0f || exit_case ? 1 : 2;
             const aacbvh_ray ray = {{0.0f, 0.0f, z0}, 0.0f, {0.0f, 0.0f, 1.0f}, INFINITY};
             aacbvh_hit hit;
             aacbvh::TraversalCounters binary;
@@ -258,7 +362,7 @@ void test_every_layout_visits_alike(void **) {
             assert_true(aacbvh::set_trace_kernel(original));
         }
     }
-    assert_true(wide8_kernels >= 4); // the plain kernel, at least, both sides and origins
+    assert_true(wide8_kernels >= 8); // the plain kernel, at least, both cases, sides and origins
 }
 
 } // namespace
@@ -266,6 +370,7 @@ void test_every_layout_visits_alike(void **) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_tie_goes_to_the_smaller_box),
+        cmocka_unit_test(test_inside_keys_order_by_exit),
         cmocka_unit_test(test_nearer_entry_first),
         cmocka_unit_test(test_every_layout_visits_alike),
     };

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 namespace bench {
@@ -178,10 +179,11 @@ struct RayInv {
 };
 
 /// Slab test; returns the entry distance, or NaN on a miss of [tmin, tmax] (so
-/// every `t <= tmax` comparison is false, also with an infinite tmax).
-/// fmin/fmax drop the NaN of 0 * inf (origin on a slab plane, direction 0 on
-/// that axis), which then leaves the interval unconstrained on that axis.
-inline float enter_box(const aacbvh_node &node, const RayInv &r, float tmin, float tmax) {
+/// every `t <= tmax` comparison is false, also with an infinite tmax), and
+/// the exit distance in `exit`. fmin/fmax drop the NaN of 0 * inf (origin on
+/// a slab plane, direction 0 on that axis), which then leaves the interval
+/// unconstrained on that axis.
+inline float enter_box(const aacbvh_node &node, const RayInv &r, float tmin, float tmax, float &exit) {
     float t_enter = tmin, t_exit = tmax;
     for (int k = 0; k < 3; ++k) {
         const float t0 = (node.lower[k] - r.org[k]) * r.inv[k];
@@ -189,7 +191,23 @@ inline float enter_box(const aacbvh_node &node, const RayInv &r, float tmin, flo
         t_enter = std::fmax(t_enter, std::fmin(t0, t1));
         t_exit = std::fmin(t_exit, std::fmax(t0, t1));
     }
+    exit = t_exit;
     return t_enter <= t_exit ? t_enter : std::numeric_limits<float>::quiet_NaN();
+}
+
+/// The library's closest-hit visiting order (lib/trace/child_order.h),
+/// restated: a box the origin lies in (entered at tmin >= 0) comes before
+/// those entered later, and such boxes go by exit distance. The key: the
+/// entry, or for such a box a negative float that grows with the exit (the
+/// bits of -inf less those of the exit, as the library makes it).
+inline float visit_key(float entry, float exit, float tmin) {
+    if (!(tmin >= 0.0f) || entry > tmin) return entry;
+    uint32_t u;
+    std::memcpy(&u, &exit, sizeof u);
+    u = 0xFF800000u - (u & 0x7FFFFFFFu);
+    float key;
+    std::memcpy(&key, &u, sizeof key);
+    return key;
 }
 
 inline void cross(const float a[3], const float b[3], float out[3]) {
@@ -221,7 +239,8 @@ CountedHit CostTracer::trace(const aacbvh_ray &ray, RayCount &count) const {
     size_t top = 0;
 
     ++count.steps;  // the root's box
-    const float t_root = enter_box(tree_.nodes[0], r, tmin, tmax);
+    float x_root;
+    const float t_root = enter_box(tree_.nodes[0], r, tmin, tmax, x_root);
     if (!(t_root <= tmax)) return hit;
     stack[top++] = {0, t_root};
 
@@ -231,12 +250,18 @@ CountedHit CostTracer::trace(const aacbvh_ray &ray, RayCount &count) const {
         const aacbvh_node &node = tree_.nodes[e.node];
         if (node.count == 0) {
             count.steps += 2;
-            const float t0 = enter_box(tree_.nodes[node.first], r, tmin, tmax);
-            const float t1 = enter_box(tree_.nodes[node.first + 1], r, tmin, tmax);
+            const aacbvh_node &c0 = tree_.nodes[node.first], &c1 = tree_.nodes[node.first + 1];
+            float x0, x1;
+            const float t0 = enter_box(c0, r, tmin, tmax, x0);
+            const float t1 = enter_box(c1, r, tmin, tmax, x1);
             const bool hit0 = t0 <= tmax, hit1 = t1 <= tmax;
             if (hit0 && hit1) {
-                // The far child goes below the near one, so the near one is popped first.
-                if (t0 <= t1) {
+                // The far child goes below the near one, so the near one is
+                // popped first: the library's order (visit_key(), closest
+                // hits only), of equal keys the smaller box.
+                const float k0 = AnyHit ? t0 : visit_key(t0, x0, tmin);
+                const float k1 = AnyHit ? t1 : visit_key(t1, x1, tmin);
+                if (k0 < k1 || (k0 == k1 && box_area(c0.lower, c0.upper) <= box_area(c1.lower, c1.upper))) {
                     stack[top++] = {node.first + 1, t1};
                     stack[top++] = {node.first, t0};
                 } else {

@@ -43,7 +43,7 @@ double sah_cost(const FlatTree &tree, double ct = 1.2, double ci = 1.0);
 /// SAH charges a node by its own area only, so two children that overlap
 /// cost no more than two that do not; yet a ray through the overlap must enter
 /// both, and a ray that starts inside it (a camera or a bounce inside the
-/// scene) enters both at distance tmin, so their order cannot separate them.
+/// scene) enters both at distance tmin, so only their exits can order them.
 ///  - area: sum over inner nodes of SA(left box ∩ right box) / SA(root), the
 ///    SAH-like expectation of how many inner nodes a random line through the
 ///    root crosses in both children at once (0 when no two siblings overlap);

@@ -132,11 +132,12 @@ inline bool ray_box_from_zero(const BoxRay &r, const Box &box, float tmin, float
 
 /// ray_box_conservative() of two boxes at once (the two children of a node).
 /// Returns bit 0 set if box a may be hit, bit 1 if box b may; t_a and t_b are
-/// their clipped entry distances (meaningful where the bit is set). Gives the
-/// same results as two ray_box_conservative() calls: same operations, same
-/// order, same roundings.
+/// their clipped entry distances (meaningful where the bit is set), x_a and
+/// x_b their widened exit distances (the ones the entries were compared
+/// with). Gives the same results as two ray_box_conservative() calls: same
+/// operations, same order, same roundings.
 inline unsigned ray_box_pair_conservative(const BoxRay &r, const Box &a, const Box &b, float tmin,
-                                          float tmax, float &t_a, float &t_b) {
+                                          float tmax, float &t_a, float &t_b, float &x_a, float &x_b) {
 #if AACBVH_RAY_BOX_SSE
     // A Box is six contiguous floats: load [lo0 lo1 lo2 hi0] and, without
     // reading past the box, [lo2 hi0 hi1 hi2] rotated to [hi0 hi1 hi2 lo2].
@@ -172,12 +173,23 @@ inline unsigned ray_box_pair_conservative(const BoxRay &r, const Box &a, const B
     const unsigned mask = unsigned(_mm_movemask_ps(_mm_cmple_ps(n, f)));
     t_a = _mm_cvtss_f32(n);
     t_b = _mm_cvtss_f32(_mm_movehl_ps(n, n));
+    x_a = _mm_cvtss_f32(f);
+    x_b = _mm_cvtss_f32(_mm_movehl_ps(f, f));
     return (mask & 1u) | ((mask >> 1) & 2u);
 #else
-    const bool hit_a = ray_box_conservative(r, a, tmin, tmax, t_a);
-    const bool hit_b = ray_box_conservative(r, b, tmin, tmax, t_b);
-    return unsigned(hit_a) | (unsigned(hit_b) << 1);
+    slab_interval(r, a.lo, a.hi, tmin, tmax, t_a, x_a);
+    slab_interval(r, b.lo, b.hi, tmin, tmax, t_b, x_b);
+    x_a += std::fabs(x_a) * kTwoGamma3;
+    x_b += std::fabs(x_b) * kTwoGamma3;
+    return unsigned(t_a <= x_a) | (unsigned(t_b <= x_b) << 1);
 #endif
+}
+
+/// The same without the exits.
+inline unsigned ray_box_pair_conservative(const BoxRay &r, const Box &a, const Box &b, float tmin,
+                                          float tmax, float &t_a, float &t_b) {
+    float x_a, x_b;
+    return ray_box_pair_conservative(r, a, b, tmin, tmax, t_a, t_b, x_a, x_b);
 }
 
 /// Test for box primitives, without widening: true if the ray meets the

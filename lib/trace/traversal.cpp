@@ -6,6 +6,7 @@
 #include <cmath>
 #include <vector>
 
+#include "trace/child_order.h"
 #include "trace/hit_record.h"
 #include "trace/ray_primitives.h"
 #include "trace/spill_stack.h"
@@ -46,16 +47,20 @@ bool traverse(const Bvh &bvh, const Primitives &prims, const BoxRay &box_ray, fl
             if (!node.is_leaf()) {
                 const Node &left = nodes[node.first];
                 const Node &right = nodes[node.first + 1];
-                float tl, tr;
+                float tl, tr, xl, xr;
                 const unsigned hits =
-                    ray_box_pair_conservative(box_ray, left.box, right.box, tmin, best.tmax, tl, tr);
+                    ray_box_pair_conservative(box_ray, left.box, right.box, tmin, best.tmax, tl, tr, xl, xr);
                 const bool hit_l = (hits & 1u) != 0, hit_r = (hits & 2u) != 0;
                 boxes_tested += 2;
                 if (hit_l && hit_r) {
-                    // Nearer entry first; of equal entries (a ray starting
-                    // inside both boxes) the smaller box, whose hits lie
-                    // nearer on average, as in the wide layouts.
-                    if (tr < tl || (tr == tl && right.box.half_area() < left.box.half_area())) {
+                    // Nearer entry first; a closest-hit query takes a box
+                    // holding the origin by its exit (trace/child_order.h);
+                    // of equal keys the smaller box, as in the wide layouts.
+                    // The entries stay the pruning bounds.
+                    const bool keys = !AnyHit && tmin >= 0.0f;
+                    const float kl = keys ? child_order_key(tl, xl, tmin) : tl;
+                    const float kr = keys ? child_order_key(tr, xr, tmin) : tr;
+                    if (kr < kl || (kr == kl && right.box.half_area() < left.box.half_area())) {
                         stack.push({node.first, tl});
                         current = {node.first + 1, tr};
                     } else {

@@ -3,15 +3,18 @@
 // region, after the file has defined its node and packet tests:
 //   struct NodeRay;     NodeRay make_node_ray(const aacbvh_ray &);
 //     the node test's per-ray rows, the values make_box_ray() gives;
-//   template <bool FromZero>
+//   template <bool FromZero, bool Keys>
 //   unsigned test_children(const Wide8Node &, const NodeRay &, float tmin,
 //                          float bound, float t_entry[8]);
 //     bit k set when child k may be hit within [tmin, tmax] (a conservative
 //     slab test: the binary layout's ray_box_conservative() lane for lane,
 //     or, where the window starts at 0 or later (FromZero, the ray's
 //     window_from_zero as a constant of the loop), exits widened through
-//     kFarScale; trace/ray_box.h), its clipped entry distance in t_entry[k];
-//     `bound` is exit_bound(ray, record) below;
+//     kFarScale; trace/ray_box.h), its clipped entry distance in t_entry[k],
+//     or with Keys (closest-hit queries) and FromZero its visiting key
+//     (child_order_key(), trace/child_order.h: a child holding the origin
+//     goes by its exit distance, its key below tmin); `bound` is
+//     exit_bound(ray, record) below;
 //   int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);
 //     the hit lanes' (distance, 7 - lane) keys, ascending (sort_hits_insertion()
 //     below, or a sorting network);
@@ -48,10 +51,12 @@ struct Entry {
 using EntryStack = SpillStack<Entry, 256>;
 
 /// A key whose unsigned order is the order of t (sign-magnitude flipped to
-/// two's complement), its low three bits cleared for 7 - lane: of equal
-/// distances the higher lane, the smaller box, comes first (lanes hold the
-/// children largest first, bvh/wide_collapse.h). Only the
-/// visiting order depends on it; pruning uses the exact t.
+/// two's complement; the negative keys of children holding the origin,
+/// trace/child_order.h, included), its low three bits cleared for 7 - lane:
+/// of equal distances the higher lane, the smaller box, comes first (lanes
+/// hold the children largest first, bvh/wide_collapse.h). Only the visiting
+/// order depends on it; pruning uses the exact t (or, for a child holding
+/// the origin, its key, below tmin: never pruned, as tmin would not be).
 inline uint32_t order_key8(float t) {
     uint32_t u;
     std::memcpy(&u, &t, sizeof u);
@@ -131,7 +136,7 @@ template <bool AnyHit, bool Packets, bool FromZero>
     do {
         const Wide8Node &node = nodes[current.child];
         alignas(32) float t_entry[8];
-        unsigned mask = test_children<FromZero>(node, r, tmin, bound, t_entry);
+        unsigned mask = test_children<FromZero, !AnyHit>(node, r, tmin, bound, t_entry);
         if (mask == 0) {
             if (!best.pop_next(stack, current)) return false;
             continue;

@@ -4,6 +4,7 @@
 // every product and sum rounds as in the other kernels.
 #include <cstring>
 
+#include "trace/child_order.h"
 #include "trace/hit_record.h"
 #include "trace/ray_primitives.h"
 #include "trace/spill_stack.h"
@@ -65,7 +66,7 @@ inline NodeRay make_node_ray(const aacbvh_ray &ray) {
     return w;
 }
 
-template <bool FromZero>
+template <bool FromZero, bool Keys>
 inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float bound, float t_entry[8]) {
     const __m256 nx = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.near[0]]), r.neg_org[0]), r.inv[0]);
     const __m256 ny = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.near[1]]), r.neg_org[1]), r.inv[1]);
@@ -73,7 +74,7 @@ inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmi
     __m256 a = _mm256_max_ps(nx, _mm256_set1_ps(tmin));
     a = _mm256_max_ps(ny, a);
     a = _mm256_max_ps(nz, a);
-    _mm256_store_ps(t_entry, a);
+    if (!(FromZero && Keys)) _mm256_store_ps(t_entry, a);
     // max / min return their second operand when the first is NaN, as the
     // scalar "x > a ? x : a" keeps a.
     __m256 b;
@@ -87,6 +88,12 @@ inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmi
         b = _mm256_min_ps(fx, _mm256_set1_ps(bound));
         b = _mm256_min_ps(fy, b);
         b = _mm256_min_ps(fz, b);
+        if (Keys) { // child_order_key(), lane for lane
+            const __m256 inside = _mm256_cmp_ps(a, _mm256_set1_ps(tmin), _CMP_LE_OQ);
+            const __m256i exit_bits = _mm256_and_si256(_mm256_castps_si256(b), _mm256_set1_epi32(0x7FFFFFFF));
+            const __m256 key = _mm256_castsi256_ps(_mm256_sub_epi32(_mm256_set1_epi32(int(0xFF800000u)), exit_bits));
+            _mm256_store_ps(t_entry, _mm256_blendv_ps(a, key, inside));
+        }
     } else { // ray_box_conservative()'s widening, lane for lane
         const __m256 fx = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.far[0]]), r.neg_org[0]), r.inv[0]);
         const __m256 fy = _mm256_mul_ps(_mm256_add_ps(_mm256_load_ps(node.box[r.far[1]]), r.neg_org[1]), r.inv[1]);

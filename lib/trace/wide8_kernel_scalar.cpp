@@ -3,6 +3,7 @@
 // reference the other kernels are tested against.
 #include <cstring>
 
+#include "trace/child_order.h"
 #include "trace/hit_record.h"
 #include "trace/ray_primitives.h"
 #include "trace/spill_stack.h"
@@ -34,7 +35,7 @@ inline NodeRay make_node_ray(const aacbvh_ray &ray) {
     return w;
 }
 
-template <bool FromZero>
+template <bool FromZero, bool Keys>
 inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float bound, float t_entry[8]) {
     unsigned mask = 0;
     // ray_box_from_zero() where the window starts at 0 or later, else
@@ -48,7 +49,7 @@ inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmi
             b = f < b ? f : b;
         }
         if (!FromZero) b += std::fabs(b) * kTwoGamma3;
-        t_entry[k] = a;
+        t_entry[k] = FromZero && Keys ? child_order_key(a, b, tmin) : a;
         if (a <= b) mask |= 1u << k;
     }
     return mask;

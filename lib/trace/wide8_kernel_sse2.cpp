@@ -4,6 +4,7 @@
 // kernel (wide8_kernel_scalar.cpp), hence the same answers.
 #include <cstring>
 
+#include "trace/child_order.h"
 #include "trace/hit_record.h"
 #include "trace/ray_primitives.h"
 #include "trace/spill_stack.h"
@@ -44,7 +45,7 @@ inline NodeRay make_node_ray(const aacbvh_ray &ray) {
 /// exits as in the AVX2 kernel). `bound` is the window's end as the exits
 /// are compared with it: exit_reach(tmax) when the window starts at 0 or
 /// later, else tmax, the exits then widened by their magnitude.
-template <bool FromZero>
+template <bool FromZero, bool Keys>
 inline unsigned test_four(const Wide8Node &node, const NodeRay &r, int h, __m128 tmin, __m128 bound,
                           float *t_entry) {
     const __m128 nx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.near[0]] + h), r.org[0]), r.inv[0]);
@@ -63,14 +64,22 @@ inline unsigned test_four(const Wide8Node &node, const NodeRay &r, int h, __m128
         const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7FFFFFFF));
         b = _mm_add_ps(b, _mm_mul_ps(_mm_and_ps(b, abs_mask), _mm_set1_ps(kTwoGamma3)));
     }
-    _mm_store_ps(t_entry + h, a);
+    if (FromZero && Keys) { // child_order_key(), lane for lane
+        const __m128 inside = _mm_cmple_ps(a, tmin);
+        const __m128i exit_bits = _mm_and_si128(_mm_castps_si128(b), _mm_set1_epi32(0x7FFFFFFF));
+        const __m128 key = _mm_castsi128_ps(_mm_sub_epi32(_mm_set1_epi32(int(0xFF800000u)), exit_bits));
+        _mm_store_ps(t_entry + h, _mm_or_ps(_mm_and_ps(inside, key), _mm_andnot_ps(inside, a)));
+    } else {
+        _mm_store_ps(t_entry + h, a);
+    }
     return unsigned(_mm_movemask_ps(_mm_cmple_ps(a, b)));
 }
 
-template <bool FromZero>
+template <bool FromZero, bool Keys>
 inline unsigned test_children(const Wide8Node &node, const NodeRay &r, float tmin, float bound, float t_entry[8]) {
     const __m128 lo = _mm_set1_ps(tmin), hi = _mm_set1_ps(bound);
-    return test_four<FromZero>(node, r, 0, lo, hi, t_entry) | (test_four<FromZero>(node, r, 4, lo, hi, t_entry) << 4);
+    return test_four<FromZero, Keys>(node, r, 0, lo, hi, t_entry) |
+           (test_four<FromZero, Keys>(node, r, 4, lo, hi, t_entry) << 4);
 }
 
 using PacketRay = PacketRaySse;

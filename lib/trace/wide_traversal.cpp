@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "trace/child_order.h"
 #include "trace/hit_record.h"
 #include "trace/ray_primitives.h"
 #include "trace/spill_stack.h"
@@ -52,9 +53,12 @@ WideRay make_wide_ray(const BoxRay &r) {
 
 /// ray_box_conservative() of the node's four child boxes: returns bit k set
 /// when child k may be hit within [tmin, tmax], its clipped entry distance in
-/// t_entry[k]. Same operations in the same order as slab_interval(): maxps /
-/// minps return their second operand when the first is NaN, which is the
-/// scalar "x > a ? x : a" that drops NaN slab distances.
+/// t_entry[k], or with Keys (closest-hit queries) and tmin >= 0 its visiting
+/// key (child_order_key(), trace/child_order.h). Same operations in the same
+/// order as slab_interval(): maxps / minps return their second operand when
+/// the first is NaN, which is the scalar "x > a ? x : a" that drops NaN slab
+/// distances.
+template <bool Keys>
 inline unsigned test_children(const WideNode &node, const WideRay &r, float tmin, float tmax, float t_entry[4]) {
 #if AACBVH_WIDE_SSE
     const __m128 nx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.box[r.near[0]]), r.org[0]), r.inv[0]);
@@ -73,7 +77,14 @@ inline unsigned test_children(const WideNode &node, const WideRay &r, float tmin
     b = _mm_min_ps(fz, b);
     const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7FFFFFFF));
     b = _mm_add_ps(b, _mm_mul_ps(_mm_and_ps(b, abs_mask), _mm_set1_ps(kTwoGamma3)));
-    _mm_store_ps(t_entry, a);
+    if (Keys && tmin >= 0.0f) { // child_order_key(), lane for lane
+        const __m128 inside = _mm_cmple_ps(a, _mm_set1_ps(tmin));
+        const __m128i exit_bits = _mm_and_si128(_mm_castps_si128(b), _mm_set1_epi32(0x7FFFFFFF));
+        const __m128 key = _mm_castsi128_ps(_mm_sub_epi32(_mm_set1_epi32(int(0xFF800000u)), exit_bits));
+        _mm_store_ps(t_entry, _mm_or_ps(_mm_and_ps(inside, key), _mm_andnot_ps(inside, a)));
+    } else {
+        _mm_store_ps(t_entry, a);
+    }
     return unsigned(_mm_movemask_ps(_mm_cmple_ps(a, b)));
 #else
     unsigned mask = 0;
@@ -86,7 +97,7 @@ inline unsigned test_children(const WideNode &node, const WideRay &r, float tmin
             b = f < b ? f : b;
         }
         b += std::fabs(b) * kTwoGamma3;
-        t_entry[k] = a;
+        t_entry[k] = Keys && tmin >= 0.0f ? child_order_key(a, b, tmin) : a;
         if (a <= b) mask |= 1u << k;
     }
     return mask;
@@ -153,7 +164,7 @@ bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, cons
         if (current.count == 0) {
             const WideNode &node = nodes[current.child];
             alignas(16) float t_entry[4];
-            unsigned mask = test_children(node, ray, tmin, best.tmax, t_entry);
+            unsigned mask = test_children<!AnyHit>(node, ray, tmin, best.tmax, t_entry);
             if (mask != 0) {
                 const unsigned k0 = unsigned(__builtin_ctz(mask));
                 mask &= mask - 1;
