@@ -257,11 +257,15 @@ CountedHit CostTracer::trace(const aacbvh_ray &ray, RayCount &count) const {
             const bool hit0 = t0 <= tmax, hit1 = t1 <= tmax;
             if (hit0 && hit1) {
                 // The far child goes below the near one, so the near one is
-                // popped first: the library's order (visit_key(), closest
-                // hits only), of equal keys the smaller box.
-                const float k0 = AnyHit ? t0 : visit_key(t0, x0, tmin);
-                const float k1 = AnyHit ? t1 : visit_key(t1, x1, tmin);
-                if (k0 < k1 || (k0 == k1 && box_area(c0.lower, c0.upper) <= box_area(c1.lower, c1.upper))) {
+                // popped first. Closest hits: the library's order
+                // (visit_key()), of equal keys the smaller box; any hit: the
+                // nearer entry, ties to the left.
+                const bool first0 =
+                    AnyHit ? t0 <= t1
+                           : visit_key(t0, x0, tmin) < visit_key(t1, x1, tmin) ||
+                                 (visit_key(t0, x0, tmin) == visit_key(t1, x1, tmin) &&
+                                  box_area(c0.lower, c0.upper) <= box_area(c1.lower, c1.upper));
+                if (first0) {
                     stack[top++] = {node.first + 1, t1};
                     stack[top++] = {node.first, t0};
                 } else {

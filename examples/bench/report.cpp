@@ -788,8 +788,8 @@ bool write_markdown(const std::string &path, const std::vector<SceneResult> &sce
     o << "## What is measured\n\n";
     o << "- **Ray cost** (the paper's measure of tree quality): per ray, traversal steps (node boxes tested) plus "
          "triangle intersection tests, counted by the benchmark's own tracer (examples/bench/ray_cost.cpp) on the "
-         "binary tree read through the public API (ordered traversal, near child first, leaves of at most 4 "
-         "triangles). Shown as the mean per ray and relative to full-sweep SAH (1.00 = as good as sweep SAH, "
+         "binary tree read through the public API (ordered traversal, near child first, children holding a "
+         "closest-hit ray's origin by exit as the library visits them, leaves of at most 4 triangles). Shown as the mean per ray and relative to full-sweep SAH (1.00 = as good as sweep SAH, "
          "lower is better).\n";
     o << "- **Rays**: primary rays from a per-scene camera (inside the interiors of sponza, conference, sibenik "
          "and stk_temple; scans seen from outside), shadow rays from the primary hits to a point light (any hit; "
