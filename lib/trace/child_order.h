@@ -20,10 +20,12 @@
 // The order decides the work, never the answer: the closest hit and its tie
 // rule on equal distances do not depend on it (trace/hit_record.h).
 //
-// Each node test returns the key in place of the entry distance for the
-// children it finds inside; pruning compares keys with the closest hit so
-// far, and an inside key (negative, below tmin) is never pruned, as the
-// entry distance tmin it stands for would not be (tmin <= tmax).
+// The wide layouts' node tests return the key in place of the entry
+// distance for the children they find inside, so the stack entries carry
+// it: pruning compares it with the closest hit so far, and an inside key
+// (negative, below tmin) is never pruned, as the entry distance tmin it
+// stands for would not be (tmin <= tmax). The binary traversal orders its
+// two children by the keys and keeps their entries for pruning.
 #pragma once
 
 #include <cstdint>
