@@ -185,15 +185,35 @@ struct WideCase {
     aacbvh::Bvh bvh;
 };
 
-WideCase make_wide_case(bool small_left) {
-    WideCase c;
-    c.vertices.assign(kVertices, kVertices + 27);
-    // U's eight triangles: small, at x = 40 + 20 j, far off the ray's path.
+/// U's eight triangles: small, at x = 40 + 20 j, z = 0, far off the ray's path.
+void append_far_triangles(std::vector<float> &vertices) {
     for (uint32_t j = 0; j < 8; ++j) {
         const float x = 40.0f + 20.0f * float(j);
         const float tri[9] = {x, 0.0f, 0.0f, x + 1.0f, 0.0f, 0.0f, x, 1.0f, 0.0f};
-        c.vertices.insert(c.vertices.end(), tri, tri + 9);
+        vertices.insert(vertices.end(), tri, tri + 9);
     }
+}
+
+/// U's nodes 7..20 (its two halves, their four quarters, and its eight
+/// leaves, slots first_slot..first_slot + 7): boxes over x >= 30 and
+/// y in [-100, 100], z in [z_lo, z_hi], each far larger than X's.
+void set_far_subtree(aacbvh::Bvh &bvh, float z_lo, float z_hi, uint32_t first_slot) {
+    bvh.nodes[7] = node(30, -100, z_lo, 110, 100, z_hi, 9, 0);
+    bvh.nodes[8] = node(110, -100, z_lo, 200, 100, z_hi, 11, 0);
+    bvh.nodes[9] = node(30, -100, z_lo, 70, 100, z_hi, 13, 0);
+    bvh.nodes[10] = node(70, -100, z_lo, 110, 100, z_hi, 15, 0);
+    bvh.nodes[11] = node(110, -100, z_lo, 150, 100, z_hi, 17, 0);
+    bvh.nodes[12] = node(150, -100, z_lo, 200, 100, z_hi, 19, 0);
+    for (uint32_t j = 0; j < 8; ++j) {
+        const float x = 40.0f + 20.0f * float(j);
+        bvh.nodes[13 + j] = node(x, 0, 0, x + 1, 1, 0, first_slot + j, 1);
+    }
+}
+
+WideCase make_wide_case(bool small_left) {
+    WideCase c;
+    c.vertices.assign(kVertices, kVertices + 27);
+    append_far_triangles(c.vertices);
     aacbvh::Bvh &bvh = c.bvh;
     bvh.prim_ids.resize(11);
     for (uint32_t i = 0; i < 11; ++i) bvh.prim_ids[i] = i;
@@ -213,17 +233,7 @@ WideCase make_wide_case(bool small_left) {
     bvh.nodes[4] = node(30, -100, -100, 200, 100, 100, 7, 0);            // U
     bvh.nodes[5] = node(-9, -9, 9.9f, 9, 9, 10.1f, 1, 1);               // triangle 1
     bvh.nodes[6] = node(5, -0.5f, -4.6f, 6, 0.5f, -4.4f, 2, 1);          // triangle 2
-    // U's inner nodes: large boxes (area far above X's 2,800), x >= 30.
-    bvh.nodes[7] = node(30, -100, -100, 110, 100, 100, 9, 0);
-    bvh.nodes[8] = node(110, -100, -100, 200, 100, 100, 11, 0);
-    bvh.nodes[9] = node(30, -100, -100, 70, 100, 100, 13, 0);
-    bvh.nodes[10] = node(70, -100, -100, 110, 100, 100, 15, 0);
-    bvh.nodes[11] = node(110, -100, -100, 150, 100, 100, 17, 0);
-    bvh.nodes[12] = node(150, -100, -100, 200, 100, 100, 19, 0);
-    for (uint32_t j = 0; j < 8; ++j) {
-        const float x = 40.0f + 20.0f * float(j);
-        bvh.nodes[13 + j] = node(x, 0, 0, x + 1, 1, 0, 3 + j, 1);
-    }
+    set_far_subtree(bvh, -100, 100, 3); // areas far above X's 2,800
     return c;
 }
 
@@ -250,11 +260,7 @@ WideCase make_exit_case(bool small_left) {
         {5.0f, -0.5f, -4.5f, 6.0f, -0.5f, -4.5f, 5.5f, 0.5f, -4.5f},   // 3: off the path, in X
     };
     for (const auto &t : tris) c.vertices.insert(c.vertices.end(), t, t + 9);
-    for (uint32_t j = 0; j < 8; ++j) {
-        const float x = 40.0f + 20.0f * float(j);
-        const float tri[9] = {x, 0.0f, 0.0f, x + 1.0f, 0.0f, 0.0f, x, 1.0f, 0.0f};
-        c.vertices.insert(c.vertices.end(), tri, tri + 9);
-    }
+    append_far_triangles(c.vertices);
     aacbvh::Bvh &bvh = c.bvh;
     bvh.prim_ids.resize(12);
     for (uint32_t i = 0; i < 12; ++i) bvh.prim_ids[i] = i;
@@ -270,16 +276,7 @@ WideCase make_exit_case(bool small_left) {
     bvh.nodes[4] = node(30, -100, -5, 200, 100, 2, 7, 0);                    // U
     bvh.nodes[5] = node(-0.5f, -0.5f, 0.9f, 0.5f, 0.5f, 1.1f, 0, 1);         // triangle 0
     bvh.nodes[6] = node(5, -0.5f, -4.6f, 6, 0.5f, -4.4f, 3, 1);              // triangle 3
-    bvh.nodes[7] = node(30, -100, -5, 110, 100, 2, 9, 0);
-    bvh.nodes[8] = node(110, -100, -5, 200, 100, 2, 11, 0);
-    bvh.nodes[9] = node(30, -100, -5, 70, 100, 2, 13, 0);
-    bvh.nodes[10] = node(70, -100, -5, 110, 100, 2, 15, 0);
-    bvh.nodes[11] = node(110, -100, -5, 150, 100, 2, 17, 0);
-    bvh.nodes[12] = node(150, -100, -5, 200, 100, 2, 19, 0);
-    for (uint32_t j = 0; j < 8; ++j) {
-        const float x = 40.0f + 20.0f * float(j);
-        bvh.nodes[13 + j] = node(x, 0, 0, x + 1, 1, 0, 4 + j, 1);
-    }
+    set_far_subtree(bvh, -5, 2, 4); // flat, and still far larger than X
     bvh.nodes[21] = node(-0.5f, -0.5f, 24.9f, 0.5f, 0.5f, 25.1f, 1, 1);     // triangle 1
     bvh.nodes[22] = node(0.6f, 0.6f, -0.45f, 0.9f, 0.9f, -0.35f, 2, 1);     // triangle 2
     return c;
