@@ -21,8 +21,9 @@ namespace aacbvh {
 ///
 /// The wide traversals read that order: an any-hit query visits the largest
 /// box first (the one most likely to hold an occluder), and a closest-hit
-/// query that enters two boxes at the same distance (a ray starting inside
-/// both) visits the smaller first, whose hits lie nearer on average.
+/// query whose keys for two boxes tie (trace/child_order.h: the same entry
+/// distance, or, for boxes holding the origin, the same exit) visits the
+/// smaller first, whose hits lie nearer on average.
 template <int Width, class Source>
 int open_largest(const Source &source, typename Source::Handle root, typename Source::Handle (&kids)[Width]) {
     using Handle = typename Source::Handle;

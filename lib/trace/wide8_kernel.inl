@@ -124,7 +124,8 @@ struct NoSlots {
 };
 
 /// Walks inner nodes from `current` (an inner node) until it holds a leaf:
-/// hit children are visited near to far, the nearest next, the others pushed
+/// hit children are visited near to far (by their keys, trace/child_order.h:
+/// those holding the origin first, by exit), the nearest next, the others pushed
 /// farthest first; a node with no hit child pops the next pending entry
 /// (HitRecord::pop_next). False when nothing is left to visit. A loop of
 /// its own, apart from the leaf tests (calls): pops after a node with no hit

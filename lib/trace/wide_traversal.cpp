@@ -148,7 +148,8 @@ inline void prefetch_node(const WideNode *nodes, uint32_t child, uint32_t count)
 }
 
 /// Closest hit (AnyHit false) or any hit of a valid ray over a non-empty wide
-/// tree. Hit children are visited near to far: the nearest next, the others
+/// tree. Hit children are visited near to far (by their keys,
+/// trace/child_order.h, for closest hits): the nearest next, the others
 /// pushed farthest first, each skipped when popped beyond the closest hit.
 template <bool AnyHit, class Primitives>
 bool traverse(const WideBvh &wide, const Bvh &bvh, const Primitives &prims, const WideRay &ray, float tmin,
