@@ -104,15 +104,23 @@ inline void slab_interval(const BoxRay &r, const float lo[3], const float hi[3],
 
 /// Conservative test for BVH nodes: true if the ray may meet the box within
 /// [tmin, tmax]; t_entry is then the (clipped) entry distance, for ordering.
+/// t_exit is then the widened exit distance the entry was compared with.
 inline bool ray_box_conservative(const BoxRay &r, const Box &box, float tmin, float tmax,
-                                 float &t_entry) {
+                                 float &t_entry, float &t_exit) {
     float t0, t1;
     slab_interval(r, box.lo, box.hi, tmin, tmax, t0, t1);
     // Widen by 2 gamma(3) of |t1| (Ize multiplies by 1 + 2 gamma(3); using the
     // magnitude keeps the widening outward for boxes behind a negative tmin).
     t1 += std::fabs(t1) * kTwoGamma3;
     t_entry = t0;
+    t_exit = t1;
     return t0 <= t1;
+}
+
+inline bool ray_box_conservative(const BoxRay &r, const Box &box, float tmin, float tmax,
+                                 float &t_entry) {
+    float t_exit;
+    return ray_box_conservative(r, box, tmin, tmax, t_entry, t_exit);
 }
 
 /// ray_box_conservative() for a window [tmin, tmax] with tmin >= 0: the exit
@@ -177,11 +185,9 @@ inline unsigned ray_box_pair_conservative(const BoxRay &r, const Box &a, const B
     x_b = _mm_cvtss_f32(_mm_movehl_ps(f, f));
     return (mask & 1u) | ((mask >> 1) & 2u);
 #else
-    slab_interval(r, a.lo, a.hi, tmin, tmax, t_a, x_a);
-    slab_interval(r, b.lo, b.hi, tmin, tmax, t_b, x_b);
-    x_a += std::fabs(x_a) * kTwoGamma3;
-    x_b += std::fabs(x_b) * kTwoGamma3;
-    return unsigned(t_a <= x_a) | (unsigned(t_b <= x_b) << 1);
+    const bool hit_a = ray_box_conservative(r, a, tmin, tmax, t_a, x_a);
+    const bool hit_b = ray_box_conservative(r, b, tmin, tmax, t_b, x_b);
+    return unsigned(hit_a) | (unsigned(hit_b) << 1);
 #endif
 }
 
