@@ -75,9 +75,9 @@ bool run_ploc(BuildInput &input, const Params &params, const FlattenRule &, Buil
 
 constexpr BuilderInfo kBuilders[] = {
     {AACBVH_BUILDER_AAC_HQ, "aac-hq", "AAC, the paper's high-quality preset (delta 20, alpha 0.4) with f(n) = ceil(2.3 n^0.4), root split by SAH: the default",
-     hq_preset, run_aac},
-    {AACBVH_BUILDER_AAC_FAST, "aac-fast", "AAC, the paper's fast preset (delta 4, alpha 0.3), HQ's cluster counts from 1,024 primitives up, root split by SAH", fast_preset, run_aac},
-    {AACBVH_BUILDER_AAC, "aac", "AAC with your own delta, c and alpha", nullptr, run_aac},
+     hq_preset, run_aac, InputRoom::Tree},
+    {AACBVH_BUILDER_AAC_FAST, "aac-fast", "AAC, the paper's fast preset (delta 4, alpha 0.3), HQ's cluster counts from 1,024 primitives up, root split by SAH", fast_preset, run_aac, InputRoom::Tree},
+    {AACBVH_BUILDER_AAC, "aac", "AAC with your own delta, c and alpha", nullptr, run_aac, InputRoom::Tree},
     {AACBVH_BUILDER_SWEEP_SAH, "sweep-sah", "top-down full-sweep SAH, the quality reference", nullptr, run_sweep},
     {AACBVH_BUILDER_BINNED_SAH, "binned-sah", "top-down binned SAH, 16 bins", nullptr, run_binned},
     {AACBVH_BUILDER_LOCALLY_ORDERED, "locally-ordered", "exact agglomerative clustering (slow; for comparison)",

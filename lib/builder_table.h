@@ -10,6 +10,7 @@
 
 #include "aacbvh/aacbvh.h"
 #include "build/aac/aac_builder.h"
+#include "build/build_input.h"
 
 namespace aacbvh {
 
@@ -27,6 +28,9 @@ struct BuilderInfo {
     /// false and leave it to build/flatten.h.
     bool (*build)(BuildInput &input, const Params &params, const FlattenRule &rule, BuildContext &ctx,
                   BinaryTree &tree, SubtreeChoices &choices);
+    /// What the input's box array leaves room for (build/build_input.h):
+    /// the AAC builders take it over as their tree's boxes.
+    InputRoom input_room = InputRoom::None;
 };
 
 /// The table, in aacbvh_builder order; `count` gets its length.

@@ -168,8 +168,10 @@ void BvhObject::build() {
     uint64_t invalid_count = 0;
     {
         const MemoryMeter::Scope metered(meter);
+        const BuilderInfo *builder = find_builder(params.builder);
+        if (!builder) throw Error(AACBVH_ERROR_INTERNAL, "unknown builder " + std::to_string(int(params.builder)));
         BuildInput input;
-        compute_build_input(geometry_, params.skip_invalid, ctx, input);
+        compute_build_input(geometry_, params.skip_invalid, ctx, input, InputPath::Fastest, builder->input_room);
         invalid_count = input.invalid_count;
         ctx.report(0.1);
 
@@ -178,8 +180,6 @@ void BvhObject::build() {
             const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost, straight};
             BinaryTree tree;
             SubtreeChoices choices;
-            const BuilderInfo *builder = find_builder(params.builder);
-            if (!builder) throw Error(AACBVH_ERROR_INTERNAL, "unknown builder " + std::to_string(int(params.builder)));
             const bool decided = builder->build(input, params, rule, ctx, tree, choices);
             ctx.report(0.8);
             Array<Box>().swap(input.boxes); // flattening needs only the tree

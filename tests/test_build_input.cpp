@@ -31,6 +31,7 @@ using aacbvh::BuildInput;
 using aacbvh::Geometry;
 using aacbvh::GeometryKind;
 using aacbvh::InputPath;
+using aacbvh::InputRoom;
 
 /// A coordinate drawn from the values that make min, max and the centroid
 /// hard: signed zeros, the largest and smallest floats, denormals, and
@@ -86,32 +87,49 @@ void make_soup(Soup &soup, uint32_t seed, size_t triangles, size_t vertex_count,
 
 bool same_bits(const void *a, const void *b, size_t bytes) { return std::memcmp(a, b, bytes) == 0; }
 
-/// Runs both paths; returns the error message (empty when both succeeded)
+/// The input's boxes as a builder reads them (BuildInput::box).
+std::vector<aacbvh::Box> boxes_of(const BuildInput &in) {
+    std::vector<aacbvh::Box> out(in.size());
+    for (size_t i = 0; i < in.size(); ++i) out[i] = in.box(i);
+    return out;
+}
+
+/// Runs both paths, each without and with room for a tree
+/// (InputRoom::Tree: the boxes in the upper half of an array of twice the
+/// primitive count); returns the error message (empty when all succeeded)
 /// after checking they agree on everything.
 std::string compare_paths(const Geometry &g, bool skip_invalid, unsigned threads) {
     aacbvh::Scheduler scheduler(threads);
-    BuildInput fast, general;
-    std::string fast_error, general_error;
-    try {
-        aacbvh::BuildContext ctx(scheduler, nullptr, nullptr);
-        aacbvh::compute_build_input(g, skip_invalid, ctx, fast, InputPath::Fastest);
-    } catch (const aacbvh::Error &e) {
-        fast_error = e.what();
+    const InputPath paths[4] = {InputPath::Fastest, InputPath::General, InputPath::Fastest, InputPath::General};
+    const InputRoom rooms[4] = {InputRoom::None, InputRoom::None, InputRoom::Tree, InputRoom::Tree};
+    BuildInput in[4];
+    std::string error[4];
+    for (int k = 0; k < 4; ++k) {
+        try {
+            aacbvh::BuildContext ctx(scheduler, nullptr, nullptr);
+            aacbvh::compute_build_input(g, skip_invalid, ctx, in[k], paths[k], rooms[k]);
+        } catch (const aacbvh::Error &e) {
+            error[k] = e.what();
+        }
     }
-    try {
-        aacbvh::BuildContext ctx(scheduler, nullptr, nullptr);
-        aacbvh::compute_build_input(g, skip_invalid, ctx, general, InputPath::General);
-    } catch (const aacbvh::Error &e) {
-        general_error = e.what();
+    for (int k = 1; k < 4; ++k) assert_true(error[k] == error[0]);
+    if (!error[0].empty()) return error[0];
+    const BuildInput &fast = in[0];
+    const std::vector<aacbvh::Box> fast_boxes = boxes_of(fast);
+    assert_int_equal(fast.box_offset, 0);
+    for (int k = 1; k < 4; ++k) {
+        const BuildInput &other = in[k];
+        assert_int_equal(other.size(), fast.size());
+        assert_int_equal(other.invalid_count, fast.invalid_count);
+        const bool room = rooms[k] == InputRoom::Tree && g.primitive_count >= aacbvh::kRoomFrom;
+        assert_int_equal(other.box_offset, room ? g.primitive_count : 0);
+        assert_int_equal(other.boxes.size(), other.box_offset + other.size());
+        const std::vector<aacbvh::Box> boxes = boxes_of(other);
+        assert_true(same_bits(fast_boxes.data(), boxes.data(), fast.size() * sizeof(aacbvh::Box)));
+        assert_true(same_bits(fast.prim_ids.data(), other.prim_ids.data(), fast.size() * sizeof(uint32_t)));
+        assert_true(same_bits(&fast.bounds, &other.bounds, sizeof fast.bounds));
+        assert_true(same_bits(&fast.centroid_bounds, &other.centroid_bounds, sizeof fast.centroid_bounds));
     }
-    assert_true(fast_error == general_error);
-    if (!fast_error.empty()) return fast_error;
-    assert_int_equal(fast.size(), general.size());
-    assert_int_equal(fast.invalid_count, general.invalid_count);
-    assert_true(same_bits(fast.boxes.data(), general.boxes.data(), fast.size() * sizeof(aacbvh::Box)));
-    assert_true(same_bits(fast.prim_ids.data(), general.prim_ids.data(), fast.size() * sizeof(uint32_t)));
-    assert_true(same_bits(&fast.bounds, &general.bounds, sizeof fast.bounds));
-    assert_true(same_bits(&fast.centroid_bounds, &general.centroid_bounds, sizeof fast.centroid_bounds));
     return std::string();
 }
 
@@ -145,6 +163,23 @@ void test_invalid_triangles_skipped(void **) {
     assert_true(input.size() + input.invalid_count == 50000);
 }
 
+/// Inputs big enough for InputRoom::Tree to make room, valid and with
+/// invalid triangles left out (the squeeze moves boxes within the upper half).
+void test_room_for_the_tree(void **) {
+    Soup soup;
+    const size_t count = aacbvh::kRoomFrom + 1234;
+    for (uint32_t seed = 31; seed <= 34; ++seed) {
+        const bool invalid = seed % 2 == 0;
+        make_soup(soup, seed, count, 40000, 12, invalid ? 2 : 0, invalid ? 3 : 0, seed != 33);
+        for (unsigned threads : {1u, 3u}) assert_true(compare_paths(soup.geometry, invalid, threads).empty());
+    }
+    aacbvh::Scheduler scheduler(1);
+    aacbvh::BuildContext ctx(scheduler, nullptr, nullptr);
+    BuildInput input;
+    aacbvh::compute_build_input(soup.geometry, true, ctx, input, InputPath::Fastest, InputRoom::Tree);
+    assert_int_equal(input.box_offset, count);
+}
+
 void test_first_invalid_named(void **) {
     Soup soup;
     for (uint32_t seed = 21; seed <= 24; ++seed) {
@@ -164,6 +199,7 @@ int main() {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_valid_triangles),
         cmocka_unit_test(test_invalid_triangles_skipped),
+        cmocka_unit_test(test_room_for_the_tree),
         cmocka_unit_test(test_first_invalid_named),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);

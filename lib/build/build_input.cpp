@@ -67,7 +67,7 @@ inline void add_primitive(const Geometry &geometry, size_t i, BuildInput &input,
         return;
     }
     const Box box = geometry.primitive_box(i);
-    input.boxes[i] = box;
+    input.boxes[input.box_offset + i] = box;
     input.prim_ids[i] = uint32_t(i);
     s.bounds.extend(box);
     const float c[3] = {box.centroid(0), box.centroid(1), box.centroid(2)};
@@ -111,7 +111,7 @@ ChunkSummary triangle_chunk(const Geometry &geometry, size_t b, size_t e, BuildI
     // A local copy and local pointers: the stores below go through types the
     // compiler must assume may alias the caller's geometry and the arrays.
     const Geometry g = geometry;
-    Box *const boxes = input.boxes.data();
+    Box *const boxes = input.boxes.data() + input.box_offset;
     uint32_t *const prim_ids = input.prim_ids.data();
     for (size_t i = b; i < e; ++i) {
         uint32_t idx[3];
@@ -162,9 +162,10 @@ ChunkSummary triangle_chunk(const Geometry &geometry, size_t b, size_t e, BuildI
 } // namespace
 
 void compute_build_input(const Geometry &geometry, bool skip_invalid, BuildContext &ctx, BuildInput &input,
-                         InputPath path) {
+                         InputPath path, InputRoom room) {
     const size_t n = geometry.primitive_count;
-    input.boxes.resize(n);
+    input.box_offset = room == InputRoom::Tree && n >= kRoomFrom ? n : 0;
+    input.boxes.resize(input.box_offset + n);
     input.prim_ids.resize(n);
 
     // One parallel pass: boxes in input order, and per chunk the bounds and
@@ -187,13 +188,14 @@ void compute_build_input(const Geometry &geometry, bool skip_invalid, BuildConte
     }
     if (all.invalid > 0) { // rare: squeeze the invalid ones out, keeping the order
         size_t out = 0;
+        Box *const boxes = input.boxes.data() + input.box_offset;
         for (size_t i = 0; i < n; ++i) {
             if (input.prim_ids[i] == UINT32_MAX) continue;
-            input.boxes[out] = input.boxes[i];
+            boxes[out] = boxes[i];
             input.prim_ids[out] = input.prim_ids[i];
             ++out;
         }
-        input.boxes.resize(out);
+        input.boxes.resize(input.box_offset + out);
         input.prim_ids.resize(out);
     }
     input.bounds = all.bounds;
@@ -202,16 +204,23 @@ void compute_build_input(const Geometry &geometry, bool skip_invalid, BuildConte
 }
 
 void gather_leaves(const BuildInput &input, const uint32_t *order, Scheduler &scheduler, BinaryTree &out) {
+    gather_leaves(input.boxes.data() + input.box_offset, input.prim_ids.data(), order, scheduler, out);
+}
+
+void gather_leaves(const Box *boxes, const uint32_t *prim_ids, const uint32_t *order, Scheduler &scheduler,
+                   BinaryTree &out) {
+    Box *const leaves = out.boxes.data();
+    uint32_t *const leaf_prims = out.prim_ids.data();
     scheduler.parallel_for(0, out.leaf_count(), kGrain, [&](size_t b, size_t e) {
         // The sorted order scatters the reads: asked for kAhead places early.
         constexpr size_t kAhead = 16;
         for (size_t i = b; i < e; ++i) {
             if (i + kAhead < e) {
-                __builtin_prefetch(&input.boxes[order[i + kAhead]]);
-                __builtin_prefetch(&input.prim_ids[order[i + kAhead]]);
+                __builtin_prefetch(&boxes[order[i + kAhead]]);
+                __builtin_prefetch(&prim_ids[order[i + kAhead]]);
             }
-            out.boxes[i] = input.boxes[order[i]];
-            out.prim_ids[i] = input.prim_ids[order[i]];
+            leaves[i] = boxes[order[i]];
+            leaf_prims[i] = prim_ids[order[i]];
         }
     });
 }

@@ -14,14 +14,33 @@
 namespace aacbvh {
 
 struct BuildInput {
-    Array<Box> boxes;                ///< boxes[i] bounds primitive prim_ids[i]
+    Array<Box> boxes;                ///< boxes[box_offset + i] bounds primitive prim_ids[i]
     Array<uint32_t> prim_ids;        ///< the caller's primitive index of entry i
+    /// 0, or with room for the builder's tree (InputRoom::Tree) the
+    /// primitive count: the boxes then lie in the upper half of an array of
+    /// twice the count, which becomes the tree's boxes (its leaves gathered
+    /// into the lower half) instead of a second array.
+    size_t box_offset = 0;
     Box bounds = Box::empty();       ///< union of all boxes
     Box centroid_bounds = Box::empty(); ///< bounds of the boxes' centres
     uint64_t invalid_count = 0;      ///< primitives left out as invalid
 
-    size_t size() const { return boxes.size(); }
+    size_t size() const { return prim_ids.size(); }
+    const Box &box(size_t i) const { return boxes[box_offset + i]; }
 };
+
+/// Whether the input's box array leaves room for a BinaryTree's boxes
+/// (BuildInput::box_offset): for builders that gather their leaves into it
+/// (AAC). A build that keeps the input's boxes beside the tree (the SAH
+/// builders, PLOC) would only hold more memory.
+enum class InputRoom { None, Tree };
+
+/// InputRoom::Tree makes room from this many primitives, whose boxes fill a
+/// big block (core/memory.h). Smaller inputs' boxes come from the build's
+/// slabs, warm from earlier builds, and a fresh block of twice their size
+/// cost AAC-HQ 4-11 % on scenes of 66-75 K triangles (docs/PERFORMANCE.md,
+/// row 176).
+constexpr size_t kRoomFrom = kHugePageBytes / sizeof(Box);
 
 /// Why primitive i of the geometry is invalid (NaN or infinite coordinates,
 /// vertex index out of range, box min > max), or nullptr if it is fine.
@@ -36,11 +55,17 @@ enum class InputPath { Fastest, General };
 /// Checks the geometry and fills `input`. Throws Error(AACBVH_ERROR_INVALID_GEOMETRY)
 /// naming the first bad primitive, unless skip_invalid leaves bad ones out.
 void compute_build_input(const Geometry &geometry, bool skip_invalid, BuildContext &ctx, BuildInput &input,
-                         InputPath path = InputPath::Fastest);
+                         InputPath path = InputPath::Fastest, InputRoom room = InputRoom::None);
 
 /// The leaves of a builder's tree in the builder's order: leaf i of `out`
 /// (sized already) takes input entry order[i], its box and the caller's
 /// primitive index. Runs in parallel.
 void gather_leaves(const BuildInput &input, const uint32_t *order, Scheduler &scheduler, BinaryTree &out);
+/// The same from `boxes` and `prim_ids` in input order; `boxes` may lie in
+/// out.boxes beyond the leaves (InputRoom::Tree), and `order` may be
+/// out.prim_ids itself (each entry is read before the leaf's index
+/// replaces it).
+void gather_leaves(const Box *boxes, const uint32_t *prim_ids, const uint32_t *order, Scheduler &scheduler,
+                   BinaryTree &out);
 
 } // namespace aacbvh

@@ -23,7 +23,7 @@ void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<ui
     const MortonQuantizer quantizer(input.centroid_bounds);
     scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i) {
-            const uint64_t code = quantizer.centroid_code(input.boxes[i]);
+            const uint64_t code = quantizer.centroid_code(input.box(i));
             high[i] = uint32_t(code >> kLowBits);
             low_index[i] = (code & ((uint64_t(1) << kLowBits) - 1)) << 32 | i;
         }
@@ -84,7 +84,7 @@ bool refine_run(const BuildInput &input, Array<uint64_t> &codes, Array<uint32_t>
     const size_t n = e - b;
     Array<uint64_t> local;
     Array<uint32_t> rank;
-    if (!local_morton_order(n, [&](size_t i) -> const Box & { return input.boxes[order[b + i]]; }, local, rank))
+    if (!local_morton_order(n, [&](size_t i) -> const Box & { return input.box(order[b + i]); }, local, rank))
         return false;
     Array<uint32_t> moved(n);
     for (size_t i = 0; i < n; ++i) moved[i] = order[b + rank[i]];

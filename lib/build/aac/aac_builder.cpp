@@ -1,6 +1,8 @@
 // Approximate Agglomerative Clustering (Gu, He, Fatahalian, Blelloch, HPG 2013).
 //
-// 1. Morton codes of the primitives' centroids, radix sorted.
+// 1. Morton codes of the primitives' centroids, radix sorted; the recursion
+//    keeps only the common prefix lengths of neighbouring codes
+//    (build/radix_split.h).
 // 2. Downward phase: split the sorted range at the highest bit on which its
 //    codes differ (the middle when all are equal) until fewer than delta remain.
 // 3. Upward phase: each range greedily combines the clusters its two halves
@@ -18,6 +20,7 @@
 #include "build/aac/cluster_combine.h"
 #include "build/aac/top_split.h"
 #include "build/morton.h"
+#include "build/radix_split.h"
 
 namespace aacbvh {
 
@@ -43,8 +46,8 @@ constexpr uint32_t kRefineFrom = 64;
 class AacRecursion {
 public:
     AacRecursion(const AacConfig &config, const FlattenRule &rule, BuildContext &ctx, BinaryTree &tree,
-                 SubtreeChoices &choices, uint64_t *codes, float scale)
-        : config_(config), rule_(rule), ctx_(ctx), tree_(tree), choices_(choices.table()), codes_(codes), scale_(scale),
+                 SubtreeChoices &choices, uint8_t *prefix, float scale)
+        : config_(config), rule_(rule), ctx_(ctx), tree_(tree), choices_(choices.table()), prefix_(prefix), scale_(scale),
           n_(tree.leaf_count()), clusters_(n_), free_ids_(n_), scratch_(MemoryMeter::current()) {
         // f(n) of the many small nodes comes from a table instead of pow().
         small_targets_.resize(std::min<uint32_t>(n_, kTargetTableSize) + 1);
@@ -73,8 +76,9 @@ private:
             return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n, t, scale, rule_, choices_, scratch_, ctx_);
         }
         if (n >= 256) ctx_.poll();
-        if (n >= kRefineFrom && codes_[b] == codes_[e - 1]) refine_codes(b, e, scale);
-        const uint32_t m = split_point(b, e);
+        RadixSplit split = radix_split(prefix_, b, e);
+        if (split.equal && n >= kRefineFrom && refine_codes(b, e, scale)) split = radix_split(prefix_, b, e);
+        const uint32_t m = split.at;
         uint32_t left = 0, right = 0;
         if (n >= kParallelGrain) {
             ctx_.scheduler().fork_join([&] { left = build(b, m, scale); }, [&] { right = build(m, e, scale); });
@@ -131,16 +135,6 @@ private:
         return own > scale_ * 0x1p20f ? own : scale_;
     }
 
-    /// The radix-tree split: first index whose code has the highest differing bit set.
-    uint32_t split_point(uint32_t b, uint32_t e) const {
-        const uint64_t first = codes_[b], last = codes_[e - 1];
-        if (first == last) return b + (e - b) / 2;
-        const int bit = 63 - __builtin_clzll(first ^ last);
-        const uint64_t mask = uint64_t(1) << bit;
-        const uint64_t *pos = std::partition_point(codes_ + b, codes_ + e, [mask](uint64_t c) { return !(c & mask); });
-        return uint32_t(pos - codes_);
-    }
-
     /// Primitives whose centroids share one cell of the scene's grid (a cluster
     /// of small triangles far from the rest of the scene: one triangle at
     /// 1e30 puts 100 K others in [0, 1]^2 in one cell) would be split by
@@ -148,17 +142,18 @@ private:
     /// distances scaled by the scene's extent that underflow to 0: such a
     /// scene traced up to thousands of times slower than a SAH tree
     /// (docs/PERFORMANCE.md, change 146). Instead the range gets codes on a
-    /// grid over its own centroids, its leaves (boxes, primitive ids, codes)
-    /// are sorted by them, ties in their present order, and its clustering
+    /// grid over its own centroids, its leaves (boxes, primitive ids, the
+    /// prefix lengths within the range) are sorted by them, ties in their present order, and its clustering
     /// distances are scaled by its own extent (`scale` is set). Nothing in the
     /// range is built yet, and ranges are disjoint, so tasks never meet here.
-    /// Nothing is done when the centroids are all one point: no grid
-    /// separates them.
-    [[gnu::noinline, gnu::cold]] void refine_codes(uint32_t b, uint32_t e, float &scale) {
+    /// Nothing is done, and false returned, when the centroids are all one
+    /// point: no grid separates them.
+    [[gnu::noinline, gnu::cold]] bool refine_codes(uint32_t b, uint32_t e, float &scale) {
         const uint32_t n = e - b;
         Array<uint64_t> local;
         Array<uint32_t> rank;
-        if (!local_morton_order(n, [&](size_t i) -> const Box & { return tree_.boxes[b + i]; }, local, rank)) return;
+        if (!local_morton_order(n, [&](size_t i) -> const Box & { return tree_.boxes[b + i]; }, local, rank))
+            return false;
         Box extent = Box::empty();
         Array<Box> boxes(n);
         Array<uint32_t> prims(n);
@@ -170,9 +165,12 @@ private:
         for (uint32_t i = 0; i < n; ++i) {
             tree_.boxes[b + i] = boxes[i];
             tree_.prim_ids[b + i] = prims[i];
-            codes_[b + i] = local[rank[i]];
         }
+        // The pairs inside the range; those across its ends stay (a range
+        // never reads them).
+        for (uint32_t i = 0; i + 1 < n; ++i) prefix_[b + i] = common_prefix(local[rank[i]], local[rank[i + 1]]);
         scale = distance_scale(extent);
+        return true;
     }
 
     const AacConfig &config_;
@@ -185,7 +183,7 @@ private:
     }
 
     static constexpr uint32_t kTargetTableSize = 4096;
-    uint64_t *codes_; ///< refine_codes() rewrites a range's
+    uint8_t *prefix_; ///< common prefix lengths of neighbouring codes; refine_codes() rewrites a range's
     float scale_;
     uint32_t n_;
     Array<uint32_t> clusters_;
@@ -202,14 +200,27 @@ void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &ru
     Array<uint64_t> codes;
     Array<uint32_t> order;
     sort_by_morton_code(input, ctx.scheduler(), codes, order);
+    // The splits need only the prefix lengths: one byte a primitive instead
+    // of eight through the rest of the build (docs/PERFORMANCE.md, row 175).
+    Array<uint8_t> prefix(n + kPrefixPadding, 0);
+    common_prefixes(codes.data(), n, prefix.data(), ctx.scheduler());
+    Array<uint64_t>().swap(codes);
     ctx.report(0.3);
 
-    // The children come after the input is freed: the gather is the build's
-    // memory peak (docs/PERFORMANCE.md, row 149).
-    out.boxes.resize(2 * size_t(n));
-    out.prim_ids.resize(n);
-    gather_leaves(input, order.data(), ctx.scheduler(), out);
-    Array<uint32_t>().swap(order);
+    // The leaves in Morton order. With room in the input's array
+    // (InputRoom::Tree) they are gathered into its lower half, which the
+    // boxes (above it) do not overlap, and the array becomes the tree's,
+    // instead of a second array beside the input's (docs/PERFORMANCE.md,
+    // row 176). The leaves' primitive indices overwrite the order, entry by
+    // entry. The children come after the input is freed (row 149).
+    out.prim_ids.swap(order);
+    const Box *boxes = input.boxes.data() + input.box_offset;
+    if (input.box_offset >= n)
+        out.boxes.swap(input.boxes);
+    else
+        out.boxes.resize(2 * size_t(n));
+    gather_leaves(boxes, input.prim_ids.data(), out.prim_ids.data(), ctx.scheduler(), out);
+    out.boxes.resize(2 * size_t(n)); // taken over: never grows (it holds box_offset + n >= 2n)
     Array<Box>().swap(input.boxes); // the leaves hold them now, in Morton order
     Array<uint32_t>().swap(input.prim_ids); // and the primitives' indices
     out.children.resize(2 * size_t(n));
@@ -218,7 +229,7 @@ void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &ru
         return;
     }
     choices.resize(n, rule.packets);
-    AacRecursion(config, rule, ctx, out, choices, codes.data(), distance_scale(input.bounds)).run();
+    AacRecursion(config, rule, ctx, out, choices, prefix.data(), distance_scale(input.bounds)).run();
 }
 
 } // namespace aacbvh

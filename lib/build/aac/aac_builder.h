@@ -50,7 +50,9 @@ struct AacConfig {
 uint32_t aac_cluster_target(const AacConfig &config, uint32_t n);
 
 /// Also makes every node's flattening decision as it is created (into
-/// `choices`), and releases input.boxes once they are gathered into the tree.
+/// `choices`), and releases input.boxes once they are gathered into the tree
+/// (the tree takes the array over when the input has room for it,
+/// InputRoom::Tree in build/build_input.h).
 void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &rule, BuildContext &ctx,
                BinaryTree &out, SubtreeChoices &choices);
 
