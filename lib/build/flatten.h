@@ -75,7 +75,7 @@ struct FlattenRule {
 /// packet-leaf pointers are null unless the choices include them.
 class ChoiceTable {
 public:
-    ChoiceTable(double *cost, SubtreeCounts *counts, float *packet_cost, uint8_t *packet_leaf)
+    ChoiceTable(float *cost, SubtreeCounts *counts, float *packet_cost, uint8_t *packet_leaf)
         : cost_(cost), counts_(counts), packet_cost_(packet_cost), packet_leaf_(packet_leaf) {}
     SubtreeChoice get(size_t k) const {
         SubtreeChoice c{cost_[k], counts_[k].prims, counts_[k].leaves};
@@ -86,7 +86,7 @@ public:
         return c;
     }
     void set(size_t k, const SubtreeChoice &c) const {
-        cost_[k] = c.cost;
+        cost_[k] = float(c.cost);
         counts_[k] = SubtreeCounts{c.prims, c.leaves};
         if (packet_cost_) {
             packet_cost_[k] = c.packet_cost;
@@ -96,7 +96,7 @@ public:
     uint32_t prims(size_t k) const { return counts_[k].prims; }
 
 private:
-    double *cost_;
+    float *cost_;
     SubtreeCounts *counts_;
     float *packet_cost_;
     uint8_t *packet_leaf_;
@@ -106,7 +106,11 @@ private:
 /// the costs serve only while choices are made, so emit_bvh() and
 /// emit_shape() release them before they allocate the finished tree (8 bytes
 /// per primitive off the build's peak, docs/PERFORMANCE.md row 123); the
-/// counts (and the packet-leaf flags) are what the layout reads.
+/// counts (and the packet-leaf flags) are what the layout reads. The costs
+/// are kept in single precision (4 bytes a node off AAC's peak, row 177);
+/// FlattenRule::inner() adds them in double. The rounding (2^-24 of a cost)
+/// can flip a near tie between one leaf and a sub-tree: of the shared
+/// scenes, sibenik's trees changed, at the same SAH to six digits.
 class SubtreeChoices {
 public:
     /// With `packets`, the choices include the packet-leaf ones
@@ -138,7 +142,7 @@ public:
     /// Frees the costs (the packet-leaf ones too); get() and set() are then
     /// out of bounds.
     void release_costs() {
-        Array<double>().swap(cost_);
+        Array<float>().swap(cost_);
         Array<float>().swap(packet_cost_);
     }
     void swap(SubtreeChoices &other) {
@@ -148,7 +152,7 @@ public:
         packet_leaf_.swap(other.packet_leaf_);
     }
     /// The arrays, for copying a tree's choices whole (the optimiser's undo).
-    Array<double> &costs() { return cost_; }
+    Array<float> &costs() { return cost_; }
     Array<SubtreeCounts> &counts() { return counts_; }
     Array<float> &packet_costs() { return packet_cost_; }
     Array<uint8_t> &packet_leaves() { return packet_leaf_; }
@@ -158,7 +162,7 @@ public:
     const Array<uint8_t> &packet_leaves() const { return packet_leaf_; }
 
 private:
-    Array<double> cost_;
+    Array<float> cost_;
     Array<SubtreeCounts> counts_;
     Array<float> packet_cost_;
     Array<uint8_t> packet_leaf_;
