@@ -27,6 +27,8 @@ constexpr uint32_t kNone = UINT32_MAX;
 } // namespace
 
 uint64_t Reinsertion::round() {
+    undo_log_.clear();
+    root_before_ = t_.root;
     if (n_ < 3 || choices_.leaves(t_.root - n_) < 3) return 0;
     const size_t slots = 2 * size_t(n_);
     parent_.resize(slots);
@@ -56,6 +58,7 @@ uint64_t Reinsertion::round() {
     });
     ctx_.poll(); // the last chance to cancel with the tree untouched
 
+    undo_log_.reserve(3 * nf); // before the first move: a failure leaves the tree as it was
     uint64_t made = 0;
     for (size_t k = 0; k < nf; ++k)
         if (take(moves_[found_[k]])) ++made;
@@ -178,7 +181,12 @@ Reinsertion::Move Reinsertion::search(uint32_t node) const {
 /// the node (which would close a cycle). parent_ is kept current.
 bool Reinsertion::take(const Move &m) {
     const uint32_t node = m.node, target = m.target;
-    const uint32_t p = parent_[node], s = sibling(node), g = parent_[p], tp = parent_[target];
+    // An earlier move that went above the root made the node, or its
+    // parent, the root (both flagged): it has no sibling or grandparent to
+    // look at now.
+    const uint32_t p = parent_[node];
+    if (p == kNone || parent_[p] == kNone) return false;
+    const uint32_t s = sibling(node), g = parent_[p], tp = parent_[target];
     const uint32_t touched[6] = {node, p, s, g, target, tp};
     for (uint32_t id : touched)
         if (id != kNone && flags_[id]) return false;
@@ -190,6 +198,9 @@ bool Reinsertion::take(const Move &m) {
 
     // Out: s replaces p under g. In: p, reused, joins target and node
     // where target was.
+    remember(g);
+    if (tp != kNone) remember(tp);
+    remember(p);
     replace_child(g, p, s);
     parent_[s] = g;
     if (tp == kNone)
@@ -201,6 +212,15 @@ bool Reinsertion::take(const Move &m) {
     parent_[target] = p;
     parent_[node] = p;
     return true;
+}
+
+void Reinsertion::undo() {
+    for (size_t k = undo_log_.size(); k-- > 0;) {
+        const Children &c = undo_log_[k];
+        t_.set_children(c.node, c.left, c.right);
+    }
+    undo_log_.clear();
+    t_.root = root_before_;
 }
 
 void Reinsertion::replace_child(uint32_t parent, uint32_t from, uint32_t to) {

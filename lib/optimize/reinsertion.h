@@ -42,6 +42,11 @@ public:
     /// ctx throws (cancel) and std::bad_alloc before it moves anything.
     uint64_t round();
 
+    /// Puts back the children and the root the last round changed (the
+    /// boxes it left alone; the caller recomputes them and the choices),
+    /// instead of a copy of the tree kept for the purpose.
+    void undo();
+
 private:
     struct Move {
         double delta;    ///< change of the sum of inner-node areas (negative: a gain)
@@ -54,6 +59,12 @@ private:
     Move search(uint32_t node) const;
     bool take(const Move &m);
     void replace_child(uint32_t parent, uint32_t from, uint32_t to);
+    /// Records a node's children before a move changes them (undo()).
+    void remember(uint32_t node) { undo_log_.push_back({node, t_.left(node), t_.right(node)}); }
+
+    struct Children {
+        uint32_t node, left, right;
+    };
 
     BinaryTree &t_;
     const SubtreeChoices &choices_;
@@ -66,6 +77,8 @@ private:
     Array<uint8_t> flags_;  ///< 1: a move taken this round changed this node
     Array<Move> moves_;
     Array<uint32_t> found_;
+    Array<Children> undo_log_;       ///< the last round's changes, in order (3 per move)
+    uint32_t root_before_ = 0;       ///< the root before the last round
 };
 
 } // namespace aacbvh

@@ -238,50 +238,29 @@ private:
 
 } // namespace
 
-namespace {
-
-/// dst = src, copied in parallel into dst's memory (kept from pass to pass).
-template <class T> void copy_array(const Array<T> &src, Array<T> &dst, Scheduler &sched) {
-    dst.resize(src.size());
-    sched.parallel_for(0, src.size(), size_t(1) << 16, [&](size_t b, size_t e) {
-        std::copy(src.begin() + b, src.begin() + e, dst.begin() + b);
-    });
-}
-
-} // namespace
-
 OptimizeReport optimize_tree(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, uint32_t passes,
                              BuildContext &ctx, double from, double to) {
     OptimizeReport report;
     if (tree.leaf_count() < 3) return report;
     TreeletPass pass(tree, rule, choices, ctx);
     Reinsertion reinsertion(tree, choices, ctx);
-    Scheduler &sched = ctx.scheduler();
     const uint32_t n = tree.leaf_count();
-    Array<uint32_t> saved_children;
-    Array<Box> saved_boxes;
-    SubtreeChoices saved_choices;
     for (uint32_t p = 0; p < passes; ++p) {
         ctx.report(from + (to - from) * p / passes);
         // Reinsertion first (far moves), then treelets (the best local
         // shape, leaves included). A round whose moves together raise the
         // cost (each was weighed alone) is undone.
+        // Undone by putting the moved children back and recomputing the
+        // boxes and choices, which are functions of the children: the same
+        // bits as before the round, without a copy of the tree
+        // (docs/PERFORMANCE.md, row 178).
         const double before = choices.cost(tree.root - n);
-        copy_array(tree.children, saved_children, sched);
-        copy_array(tree.boxes, saved_boxes, sched);
-        copy_array(choices.costs(), saved_choices.costs(), sched);
-        copy_array(choices.counts(), saved_choices.counts(), sched);
-        copy_array(choices.packet_costs(), saved_choices.packet_costs(), sched);
-        copy_array(choices.packet_leaves(), saved_choices.packet_leaves(), sched);
-        const uint32_t saved_root = tree.root;
         uint64_t changed = reinsertion.round();
         if (changed) {
             pass.refresh();
             if (!(choices.cost(tree.root - n) < before)) {
-                tree.children.swap(saved_children);
-                tree.boxes.swap(saved_boxes);
-                choices.swap(saved_choices);
-                tree.root = saved_root;
+                reinsertion.undo();
+                pass.refresh();
                 changed = 0;
             }
         }
