@@ -151,11 +151,6 @@ public:
         packet_cost_.swap(other.packet_cost_);
         packet_leaf_.swap(other.packet_leaf_);
     }
-    /// The arrays, for copying a tree's choices whole (the optimiser's undo).
-    Array<float> &costs() { return cost_; }
-    Array<SubtreeCounts> &counts() { return counts_; }
-    Array<float> &packet_costs() { return packet_cost_; }
-    Array<uint8_t> &packet_leaves() { return packet_leaf_; }
     /// The counts alone (the binary emit reads them through a pointer).
     const Array<SubtreeCounts> &counts() const { return counts_; }
     /// Whether each node is one packet leaf (empty unless included).

@@ -142,9 +142,10 @@ private:
     /// distances scaled by the scene's extent that underflow to 0: such a
     /// scene traced up to thousands of times slower than a SAH tree
     /// (docs/PERFORMANCE.md, change 146). Instead the range gets codes on a
-    /// grid over its own centroids, its leaves (boxes, primitive ids, the
-    /// prefix lengths within the range) are sorted by them, ties in their present order, and its clustering
-    /// distances are scaled by its own extent (`scale` is set). Nothing in the
+    /// grid over its own centroids, its leaves (boxes, primitive ids) are
+    /// sorted by them, ties in their present order, the prefix lengths
+    /// within the range are made from them, and its clustering distances
+    /// are scaled by its own extent (`scale` is set). Nothing in the
     /// range is built yet, and ranges are disjoint, so tasks never meet here.
     /// Nothing is done, and false returned, when the centroids are all one
     /// point: no grid separates them.
