@@ -116,9 +116,18 @@ static void test_rebuilds_match_fresh_builds(void **state) {
             expect_fresh_tree(&setups[si], kept, &meshes[i]);
         }
         {
-            /* The last build's freed scratch and the replaced tree stay, counted. */
+            /* The last build's freed scratch and the replaced tree stay,
+             * counted. How much the first build of a new size keeps depends
+             * on how its arrays fit the blocks it freed (AAC's tree takes over
+             * the input's box array from 87 K triangles, docs/PERFORMANCE.md
+             * row 176, and the layouts are then cut from that block: 0.6 MB
+             * kept after the 90 K-triangle mesh); a second build of the same
+             * mesh keeps what a build of that size frees. */
             aacbvh_stats stats;
             stats.struct_size = sizeof stats;
+            TS_EXPECT_STATUS(aacbvh_bvh_get_stats(kept, &stats), AACBVH_OK);
+            assert_true(stats.kept_build_bytes > 0);
+            TS_EXPECT_STATUS(aacbvh_bvh_build(kept), AACBVH_OK);
             TS_EXPECT_STATUS(aacbvh_bvh_get_stats(kept, &stats), AACBVH_OK);
             assert_true(stats.kept_build_bytes >= ((uint64_t)2 << 20));
             assert_true(stats.memory_bytes > stats.kept_build_bytes);
