@@ -1,7 +1,6 @@
 #include "optimize/treelet_optimizer.h"
 
 #include <algorithm>
-#include <atomic>
 #include <vector>
 
 #include "optimize/reinsertion.h"
@@ -27,11 +26,7 @@ public:
         : t_(tree), rule_(rule), choices_(choices), ctx_(ctx), n_(tree.leaf_count()) {}
 
     /// One bottom-up pass over the whole tree; returns the treelets replaced.
-    uint64_t run() {
-        changed_.store(0, std::memory_order_relaxed);
-        if (!t_.is_leaf(t_.root)) pass_subtree(t_.root, 0);
-        return changed_.load(std::memory_order_relaxed);
-    }
+    uint64_t run() { return t_.is_leaf(t_.root) ? 0 : pass_subtree(t_.root, 0); }
 
     /// Every inner box from its children and every choice from the
     /// children's, bottom-up (after reinsertion moved sub-trees); sub-trees
@@ -90,19 +85,24 @@ private:
         return t_.is_leaf(id) ? rule_.leaf(t_.boxes[id]) : choices_.get(id - n_);
     }
 
-    void pass_subtree(uint32_t root, unsigned depth) {
+    /// The treelets replaced in the sub-tree, counted per task and summed
+    /// up the recursion: one shared counter bumped by every replacement
+    /// bounced its cache line between the threads (docs/PERFORMANCE.md,
+    /// row 179).
+    uint64_t pass_subtree(uint32_t root, unsigned depth) {
         if (depth < kParallelDepth && choices_.prims(root - n_) >= kParallelGrain) {
             const uint32_t l = t_.left(root), r = t_.right(root);
+            uint64_t left_changed = 0, right_changed = 0;
             ctx_.scheduler().fork_join(
                 [&] {
-                    if (!t_.is_leaf(l)) pass_subtree(l, depth + 1);
+                    if (!t_.is_leaf(l)) left_changed = pass_subtree(l, depth + 1);
                 },
                 [&] {
-                    if (!t_.is_leaf(r)) pass_subtree(r, depth + 1);
+                    if (!t_.is_leaf(r)) right_changed = pass_subtree(r, depth + 1);
                 });
-            restructure(root);
+            const uint64_t changed = left_changed + right_changed + (restructure(root) ? 1 : 0);
             ctx_.poll();
-            return;
+            return changed;
         }
         // Post-order with an explicit stack: trees may be as deep as their leaf count.
         struct Item {
@@ -111,6 +111,7 @@ private:
         };
         std::vector<Item> stack{{root, false}};
         uint32_t done = 0;
+        uint64_t changed = 0;
         while (!stack.empty()) {
             Item &it = stack.back();
             if (!it.expanded) {
@@ -122,15 +123,17 @@ private:
             }
             const uint32_t id = it.id;
             stack.pop_back();
-            restructure(id);
+            changed += restructure(id) ? 1 : 0;
             if ((++done & 0x3FF) == 0) ctx_.poll();
         }
+        return changed;
     }
 
     /// Grows the treelet at `root`, finds its cheapest topology and installs
-    /// it if that lowers the root's cost. Children of the treelet's leaves,
-    /// and the root's id (its parent points at it), stay as they were.
-    void restructure(uint32_t root) {
+    /// it if that lowers the root's cost (then returns true). Children of
+    /// the treelet's leaves, and the root's id (its parent points at it),
+    /// stay as they were.
+    bool restructure(uint32_t root) {
         // The children were visited first and may have changed: the root's
         // choice is made again from theirs, before anything else reads it.
         choices_.set(root - n_, rule_.inner(t_.boxes[root], choice(t_.left(root)), choice(t_.right(root))));
@@ -158,7 +161,7 @@ private:
             leaf_area[nl] = t_.boxes[leaf[nl]].area();
             ++nl;
         }
-        if (nl < 3) return; // two leaves have one topology
+        if (nl < 3) return false; // two leaves have one topology
 
         // best[S]: the cheapest sub-tree over the treelet leaves in S (cost,
         // primitives, leaves kept, as flattening decides them); side[S]: the
@@ -194,7 +197,7 @@ private:
             side[s] = uint8_t(split_side);
         }
         const SubtreeChoice old = choices_.get(root - n_);
-        if (!(best[full].cost < old.cost * (1.0 - kMinGain))) return;
+        if (!(best[full].cost < old.cost * (1.0 - kMinGain))) return false;
 
         // Install: the treelet's inner nodes are reused, the root first;
         // pre-order ids and children, then boxes and choices bottom-up.
@@ -225,7 +228,7 @@ private:
             t_.boxes[order[k].id] = box[order[k].set];
             choices_.set(order[k].id - n_, best[order[k].set]);
         }
-        changed_.fetch_add(1, std::memory_order_relaxed);
+        return true;
     }
 
     BinaryTree &t_;
@@ -233,7 +236,6 @@ private:
     SubtreeChoices &choices_;
     BuildContext &ctx_;
     const uint32_t n_;
-    std::atomic<uint64_t> changed_{0};
 };
 
 } // namespace
