@@ -177,7 +177,8 @@ void BvhObject::build() {
 
         if (input.size() > 0) {
             const bool straight = straight_to_compact(input.size());
-            const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost, straight};
+            const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost, straight,
+                                   extent_scale_of(input.bounds)};
             BinaryTree tree;
             SubtreeChoices choices;
             const bool decided = builder->build(input, params, rule, ctx, tree, choices);
@@ -473,11 +474,12 @@ void BvhObject::optimize(uint32_t passes) {
         return;
     }
     // Like a build, into temporaries: the handle changes only on success.
-    const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost};
     // The current tree, made once from the packets where only its shape is kept.
     Bvh remade;
     if (compact()) remake_tree(remade);
     const Bvh &current = compact() ? remade : bvh_;
+    const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost, false,
+                           extent_scale_of(current.nodes[0].box)};
     Bvh result;
     {
         BinaryTree tree;

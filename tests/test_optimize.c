@@ -125,6 +125,71 @@ static void test_scene_kinds(void **state) {
     }
 }
 
+/* A scene scaled by a power of two (2^100: coordinates near 1e30, whose areas
+ * overflow single precision; 2^-100: near 1e-30, whose areas underflow it;
+ * 2^60: areas near 2^120, just inside it) is the same scene to every builder
+ * and to the optimiser: each weighs areas on extents scaled to the scene's,
+ * so the tree built and then optimised at each scale is the one at scale 1,
+ * its boxes scaled. Before, a scene of coordinates near 1e20 got infinite
+ * flattening costs, leaves chosen by ties and SAH splits chosen blind. */
+static void optimised_at_scale(const ts_mesh *m, aacbvh_builder builder, int exponent, ts_tree *built,
+                               ts_tree *optimised) {
+    ts_mesh scaled = *m;
+    scaled.vertices = (float *)malloc(3 * m->vertex_count * sizeof(float));
+    assert_non_null(scaled.vertices);
+    for (size_t i = 0; i < 3 * m->vertex_count; ++i) scaled.vertices[i] = ldexpf(m->vertices[i], exponent);
+    aacbvh_context *ctx;
+    aacbvh_bvh *bvh;
+    ts_create(2, &ctx, &bvh);
+    ts_set_mesh(bvh, &scaled);
+    TS_EXPECT_STATUS(aacbvh_bvh_set_param_int(bvh, AACBVH_PARAM_BUILDER, builder), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_build(bvh), AACBVH_OK);
+    TS_EXPECT_STATUS(ts_tree_fetch(bvh, built), AACBVH_OK);
+    TS_EXPECT_STATUS(aacbvh_bvh_optimize(bvh, 2), AACBVH_OK);
+    TS_EXPECT_STATUS(ts_tree_fetch(bvh, optimised), AACBVH_OK);
+    aacbvh_bvh_destroy(bvh);
+    aacbvh_context_destroy(ctx);
+    free(scaled.vertices);
+    /* Back to scale 1, exactly. */
+    ts_tree *trees[2] = {built, optimised};
+    for (int t = 0; t < 2; ++t)
+        for (size_t i = 0; i < trees[t]->node_count; ++i)
+            for (int a = 0; a < 3; ++a) {
+                trees[t]->nodes[i].lower[a] = ldexpf(trees[t]->nodes[i].lower[a], -exponent);
+                trees[t]->nodes[i].upper[a] = ldexpf(trees[t]->nodes[i].upper[a], -exponent);
+            }
+}
+
+static void test_power_of_two_scales(void **state) {
+    (void)state;
+    ts_mesh m;
+    assert_true(ts_make_scene(TS_SCENE_RANDOM, 3000, 31, &m));
+    for (int b = 0; aacbvh_builder_name((aacbvh_builder)b); ++b) {
+        const char *name = aacbvh_builder_name((aacbvh_builder)b);
+        ts_tree built, optimised;
+        optimised_at_scale(&m, (aacbvh_builder)b, 0, &built, &optimised);
+        if (!(optimised.stats.sah_cost < built.stats.sah_cost))
+            fail_msg("%s: SAH %.9g -> %.9g: expected a gain", name, built.stats.sah_cost, optimised.stats.sah_cost);
+        /* Leaves of several primitives: the flattening decided something. */
+        if (!(built.node_count < 2 * built.prim_count - 1)) fail_msg("%s: every leaf holds one primitive", name);
+        const int exponents[] = {100, 60, -100};
+        for (size_t k = 0; k < sizeof exponents / sizeof exponents[0]; ++k) {
+            ts_tree bs, os;
+            char msg[256];
+            optimised_at_scale(&m, (aacbvh_builder)b, exponents[k], &bs, &os);
+            if (!ts_tree_diff(&built, &bs, msg, sizeof msg))
+                fail_msg("%s, built at 2^%d: %s", name, exponents[k], msg);
+            if (!ts_tree_diff(&optimised, &os, msg, sizeof msg))
+                fail_msg("%s, optimised at 2^%d: %s", name, exponents[k], msg);
+            ts_tree_free(&bs);
+            ts_tree_free(&os);
+        }
+        ts_tree_free(&built);
+        ts_tree_free(&optimised);
+    }
+    ts_mesh_free(&m);
+}
+
 /* The tree of optimize(passes) and of a build with AACBVH_PARAM_OPTIMIZE_PASSES
  * at 1, 2 and 3 threads, on a scene large enough for parallel tasks; under
  * ThreadSanitizer 1 and 3 (the races need threads, not every count) on 20,000
@@ -472,7 +537,7 @@ static void test_errors(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_every_builder),   cmocka_unit_test(test_scene_kinds),
-        cmocka_unit_test(test_thread_counts),
+        cmocka_unit_test(test_thread_counts),   cmocka_unit_test(test_power_of_two_scales),
         cmocka_unit_test(test_passes_in_build), cmocka_unit_test(test_kept_memory),
         cmocka_unit_test(test_refit_and_optimize),
         cmocka_unit_test(test_answers),         cmocka_unit_test(test_cancel_keeps_tree),

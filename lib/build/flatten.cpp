@@ -182,8 +182,8 @@ SubtreeChoice root_choice(const BinaryTree &tree, const FlattenRule &rule, const
 }
 
 /// The tree's SAH cost normalised by the root's area (0 when that area is 0).
-double normalised_cost(const BinaryTree &tree, const SubtreeChoice &root) {
-    const double root_area = tree.boxes[tree.root].area();
+double normalised_cost(const BinaryTree &tree, const FlattenRule &rule, const SubtreeChoice &root) {
+    const double root_area = rule.area(tree.boxes[tree.root]);
     return root_area > 0.0 ? root.cost / root_area : 0.0;
 }
 
@@ -201,7 +201,7 @@ double emit_bvh(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices 
     out.prim_ids.resize(n);
     const NodeSink sink{out.nodes.data(), tree.boxes.data()};
     Emitter<NodeSink>(tree, choices, ctx, sink, out.prim_ids.data()).emit(tree.root, 0, 1, 0, 0);
-    return normalised_cost(tree, root);
+    return normalised_cost(tree, rule, root);
 }
 
 double emit_shape(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, BuildContext &ctx,
@@ -216,7 +216,7 @@ double emit_shape(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoice
     prim_ids.resize(n);
     const ShapeSink sink{shape.data()};
     Emitter<ShapeSink>(tree, choices, ctx, sink, prim_ids.data()).emit(tree.root, 0, 1, 0, 0);
-    return normalised_cost(tree, root);
+    return normalised_cost(tree, rule, root);
 }
 
 ChosenTree chosen_view(const BinaryTree &tree, const SubtreeChoices &choices) {

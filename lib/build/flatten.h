@@ -35,18 +35,31 @@ struct FlattenRule {
     double intersection_cost;
     /// Whether the choices include the packet-leaf ones.
     bool packets = false;
+    /// The scene's extent_scale_of() (core/box.h): costs are of areas on
+    /// extents scaled by it, so that they fit the single-precision costs of
+    /// SubtreeChoices in any scene (unscaled, a scene with coordinates near
+    /// 1e20 had infinite costs and its leaves chosen by ties), and a scene
+    /// scaled by a power of two gets the same choices.
+    float extent_scale = 1.0f;
+
+    /// A box's surface area as the costs weigh it (scaled, in double).
+    double area(const Box &box) const {
+        return box.area() * (double(extent_scale) * double(extent_scale));
+    }
+    /// Its half area for the packet-leaf choice (scaled, in single precision).
+    float packet_area(const Box &box) const { return scaled_half_area(box, extent_scale); }
 
     SubtreeChoice leaf(const Box &box) const {
-        SubtreeChoice c{intersection_cost * box.area(), 1, 1};
+        SubtreeChoice c{intersection_cost * area(box), 1, 1};
         if (packets) {
-            c.packet_cost = packet_leaf_cost(box.half_area_of_filled(), 1);
+            c.packet_cost = packet_leaf_cost(packet_area(box), 1);
             c.packet_leaf = true;
         }
         return c;
     }
     /// The decision for an inner node whose children chose l and r.
     SubtreeChoice inner(const Box &box, const SubtreeChoice &l, const SubtreeChoice &r) const {
-        const double area = box.area();
+        const double area = this->area(box);
         const uint32_t prims = l.prims + r.prims;
         const double split = traversal_cost * area + l.cost + r.cost;
         const double as_leaf = intersection_cost * area * prims;
@@ -59,11 +72,11 @@ struct FlattenRule {
             if (prims > kMaxPacketLeaf) {
                 c.packet_leaf = c.leaves == 1;
             } else if (c.leaves == 1) {
-                c.packet_cost = packet_leaf_cost(box.half_area_of_filled(), prims);
+                c.packet_cost = packet_leaf_cost(packet_area(box), prims);
                 c.packet_leaf = true;
             } else {
                 c.packet_leaf =
-                    choose_packet_leaf(box.half_area_of_filled(), prims, l.packet_cost, r.packet_cost, c.packet_cost);
+                    choose_packet_leaf(packet_area(box), prims, l.packet_cost, r.packet_cost, c.packet_cost);
             }
         }
         return c;

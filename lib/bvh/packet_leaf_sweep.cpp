@@ -9,7 +9,8 @@ namespace aacbvh {
 
 PacketLeafSweep::PacketLeafSweep(const Bvh &bvh, Scheduler &scheduler, size_t grain)
     : range_count(bvh.nodes.size()), range_first(bvh.nodes.size()), packet_leaf(bvh.nodes.size()),
-      nodes_(bvh.nodes.data()), scheduler_(scheduler), grain_(grain), cost_(bvh.nodes.size()) {
+      nodes_(bvh.nodes.data()), extent_scale_(bvh.nodes.empty() ? 1.0f : extent_scale_of(bvh.nodes[0].box)),
+      scheduler_(scheduler), grain_(grain), cost_(bvh.nodes.size()) {
     if (!bvh.nodes.empty()) sweep(0, bvh.nodes.size(), 0);
     Array<float>().swap(cost_);
 }
@@ -35,7 +36,7 @@ void PacketLeafSweep::sweep(uint32_t i, size_t end, unsigned depth) {
 
 void PacketLeafSweep::visit(uint32_t i) {
     const Node &b = nodes_[i];
-    const float area = b.box.half_area();
+    const float area = b.box.is_empty() ? 0.0f : scaled_half_area(b.box, extent_scale_);
     if (b.is_leaf()) {
         range_first[i] = b.first;
         range_count[i] = b.count;

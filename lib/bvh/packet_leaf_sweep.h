@@ -72,6 +72,9 @@ private:
     void visit(uint32_t i);
 
     const Node *nodes_;
+    /// The tree's extent_scale_of() (core/box.h), as FlattenRule::packet_area()
+    /// scales the same areas in a build straight to the layout.
+    float extent_scale_;
     Scheduler &scheduler_;
     size_t grain_;
     Array<float> cost_; ///< during the sweep only

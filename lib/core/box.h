@@ -58,6 +58,27 @@ inline Box unite(const Box &a, const Box &b) {
     return r;
 }
 
+/// A power of two that brings the largest extent of `bounds` (a scene's) to
+/// [0.5, 1); 1 for an empty, flat-point or infinite one. Areas of extents
+/// scaled by it stay in single precision's range for any scene (coordinates
+/// near 1e30 have areas near 1e60, near 1e-30 areas near 1e-60), and,
+/// multiplying exactly, a scene scaled by a power of two has the same scaled
+/// areas bit for bit.
+inline float extent_scale_of(const Box &bounds) {
+    const float largest = std::max({bounds.extent(0), bounds.extent(1), bounds.extent(2)});
+    if (!(largest > 0.0f) || !std::isfinite(largest)) return 1.0f;
+    int exponent = 0;
+    std::frexp(largest, &exponent);
+    return std::ldexp(1.0f, -exponent);
+}
+
+/// Half surface area of a filled box (see Box::half_area_of_filled()) whose
+/// extents are first multiplied by `scale` (extent_scale_of()).
+inline float scaled_half_area(const Box &b, float scale) {
+    const float dx = (b.hi[0] - b.lo[0]) * scale, dy = (b.hi[1] - b.lo[1]) * scale, dz = (b.hi[2] - b.lo[2]) * scale;
+    return dx * dy + dy * dz + dz * dx;
+}
+
 /// Half surface area of the union of two boxes: AAC's cluster distance d(A, B).
 inline float union_half_area(const Box &a, const Box &b) {
     const float dx = std::max(a.hi[0], b.hi[0]) - std::min(a.lo[0], b.lo[0]);

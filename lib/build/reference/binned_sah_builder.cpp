@@ -21,7 +21,8 @@ public:
     static constexpr int kBins = 16;
 
     BinnedSahBuilder(const BuildInput &input, BuildContext &ctx, BinaryTree &out)
-        : input_(input), ctx_(ctx), out_(out), n_(uint32_t(input.size())) {}
+        : input_(input), ctx_(ctx), out_(out), n_(uint32_t(input.size())),
+          extent_scale_(extent_scale_of(input.bounds)) {}
 
     void build() {
         out_.resize(n_);
@@ -79,7 +80,7 @@ private:
             Box acc = Box::empty();
             for (int j = kBins - 1; j > 0; --j) {
                 acc.extend(bins[j].box);
-                right_area[j] = acc.half_area();
+                right_area[j] = area(acc);
             }
             double best_cost = INFINITY;
             int best_j = 0;
@@ -89,7 +90,7 @@ private:
                 acc.extend(bins[j - 1].box);
                 count += bins[j - 1].count;
                 if (count == 0 || count == e - b) continue;
-                const double cost = double(acc.half_area()) * count + double(right_area[j]) * (e - b - count);
+                const double cost = double(area(acc)) * count + double(right_area[j]) * (e - b - count);
                 if (top_down::better_split(cost, b + count, best_cost, b + best_count, b, e)) {
                     best_cost = cost;
                     best_j = j;
@@ -131,6 +132,11 @@ private:
     BuildContext &ctx_;
     BinaryTree &out_;
     uint32_t n_;
+    /// Areas on extents scaled by the scene's extent_scale_of() (core/box.h):
+    /// unscaled, the areas of a scene with coordinates near 1e20 overflowed
+    /// single precision and every split cost the same.
+    const float extent_scale_;
+    float area(const Box &b) const { return b.is_empty() ? 0.0f : scaled_half_area(b, extent_scale_); }
     Array<uint32_t> order_; ///< primitive indices, partitioned in place
 };
 

@@ -29,7 +29,8 @@ inline uint32_t float_order_key(float f) {
 class SweepSahBuilder {
 public:
     SweepSahBuilder(const BuildInput &input, BuildContext &ctx, BinaryTree &out)
-        : input_(input), ctx_(ctx), out_(out), n_(uint32_t(input.size())) {}
+        : input_(input), ctx_(ctx), out_(out), n_(uint32_t(input.size())),
+          extent_scale_(extent_scale_of(input.bounds)) {}
 
     void build() {
         out_.resize(n_);
@@ -79,12 +80,13 @@ private:
             Box acc = Box::empty();
             for (uint32_t i = e - 1; i > b; --i) {
                 acc.extend(boxes[i]);
-                right_area[i] = acc.half_area();
+                right_area[i] = scaled_half_area(acc, extent_scale_);
             }
             acc = Box::empty();
             for (uint32_t m = b + 1; m < e; ++m) {
                 acc.extend(boxes[m - 1]);
-                const double cost = double(acc.half_area()) * (m - b) + double(right_area[m]) * (e - m);
+                const double cost =
+                    double(scaled_half_area(acc, extent_scale_)) * (m - b) + double(right_area[m]) * (e - m);
                 if (top_down::better_split(cost, m, best_cost, best_m, b, e)) {
                     best_cost = cost;
                     best_m = m;
@@ -133,6 +135,10 @@ private:
     Array<Box> sorted_boxes_[3]; ///< their boxes, so that sweeps read memory in order
     Array<uint32_t> scratch_;    ///< partition buffers, indexed like the orders
     Array<Box> scratch_boxes_;
+    /// Areas on extents scaled by the scene's extent_scale_of() (core/box.h):
+    /// unscaled, the areas of a scene with coordinates near 1e20 overflowed
+    /// single precision and every split cost the same.
+    const float extent_scale_;
     Array<float> right_area_;    ///< suffix areas of the sweep, indexed like the orders
     Array<uint8_t> goes_left_;   ///< per primitive: side of the current split
 };
