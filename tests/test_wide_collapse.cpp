@@ -52,8 +52,9 @@ std::vector<uint32_t> open_reference(const aacbvh::Bvh &bvh, uint32_t root, size
 template <int Width>
 void check_node(const aacbvh::Bvh &bvh, uint32_t i, const char *what) {
     uint32_t kids[Width];
-    const int m = aacbvh::open_largest_children(bvh.nodes.data(), i, [&](uint32_t j) { return bvh.nodes[j].is_leaf(); },
-                                                kids);
+    const float scale = aacbvh::extent_scale_of(bvh.nodes[0].box);
+    const int m = aacbvh::open_largest_children(bvh.nodes.data(), scale, i,
+                                                [&](uint32_t j) { return bvh.nodes[j].is_leaf(); }, kids);
     const std::vector<uint32_t> want = open_reference(bvh, i, Width);
     if (size_t(m) != want.size()) fail_msg("%s, width %d, node %u: %d children, want %zu", what, Width, i, m, want.size());
     // Largest first; equal areas in opening order.

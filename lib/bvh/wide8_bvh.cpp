@@ -141,7 +141,8 @@ struct ChosenSource {
     void prefetch_children(Place p) const {
         if (p.id >= tree.n) __builtin_prefetch(&tree.children[2 * size_t(p.id - tree.n)]);
     }
-    float half_area(Place p) const { return tree.boxes[p.id].half_area(); }
+    float extent_scale; ///< extent_scale_of() the root's box, as EmittedShape's
+    float half_area(Place p) const { return scaled_half_area(tree.boxes[p.id], extent_scale); }
     void children(Place p, Place &l, Place &r) const {
         l = Place{tree.left(p.id), p.slot};
         r = Place{tree.right(p.id), p.slot + tree.prims(l.id)};
@@ -364,13 +365,13 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     }
     std::unique_ptr<PacketLeafSweep> sweep;
     if (triangles) sweep.reset(new PacketLeafSweep(bvh, scheduler));
-    const EmittedSource source{{bvh.nodes.data()}, sweep.get()};
+    const EmittedSource source{{bvh.nodes.data(), extent_scale_of(bvh.nodes[0].box)}, sweep.get()};
     build_from(source, 0u, triangles, bvh.prim_ids.data(), scheduler, [&] { sweep.reset(); });
 }
 
 void Wide8Bvh::build(const ChosenTree &tree, const Geometry &triangles, const uint32_t *prim_ids,
                      Scheduler &scheduler, const std::function<void()> &tree_done) {
-    const ChosenSource source{tree};
+    const ChosenSource source{tree, extent_scale_of(tree.boxes[tree.root])};
     build_from(source, Place{tree.root, 0}, &triangles, prim_ids, scheduler, tree_done);
     // Its sources are the builder's ids, which mean nothing once the build
     // is over: the handle keeps the binary tree's shape instead.

@@ -57,12 +57,14 @@ void WideBvh::build(const Bvh &bvh, Scheduler &scheduler) {
         uint32_t wide;
     };
     std::vector<Work> work{{0u, 0u}};
+    const float scale = extent_scale_of(bnodes[0].box);
     uint32_t next = 1;
     while (!work.empty()) {
         const Work w = work.back();
         work.pop_back();
         uint32_t kids[4];
-        const int n = open_largest_children(bnodes, w.binary, [bnodes](uint32_t i) { return bnodes[i].is_leaf(); }, kids);
+        const int n =
+            open_largest_children(bnodes, scale, w.binary, [bnodes](uint32_t i) { return bnodes[i].is_leaf(); }, kids);
         uint32_t *src = &sources[4 * size_t(w.wide)];
         uint32_t wide_kid[4];
         first_child[w.wide] = next;

@@ -78,9 +78,14 @@ int open_largest(const Source &source, typename Source::Handle root, typename So
 struct EmittedShape {
     using Handle = uint32_t;
     const Node *nodes;
+    /// extent_scale_of() the root's box (core/box.h): areas on scaled extents,
+    /// so that a scene near 1e20 does not compare infinite areas.
+    float extent_scale;
     /// The emitted children lie next to their parent's siblings: no hint.
     void prefetch_children(uint32_t) const {}
-    float half_area(uint32_t i) const { return nodes[i].box.half_area(); }
+    float half_area(uint32_t i) const {
+        return nodes[i].box.is_empty() ? 0.0f : scaled_half_area(nodes[i].box, extent_scale);
+    }
     void children(uint32_t i, uint32_t &l, uint32_t &r) const {
         l = nodes[i].first;
         r = l + 1;
@@ -88,14 +93,15 @@ struct EmittedShape {
 };
 
 /// open_largest() over the emitted binary nodes, with the leaves
-/// `is_leaf(i)` says.
+/// `is_leaf(i)` says; `extent_scale` is extent_scale_of(nodes[0].box).
 template <int Width, class IsLeaf>
-int open_largest_children(const Node *nodes, uint32_t root, const IsLeaf &is_leaf, uint32_t (&kids)[Width]) {
+int open_largest_children(const Node *nodes, float extent_scale, uint32_t root, const IsLeaf &is_leaf,
+                          uint32_t (&kids)[Width]) {
     struct Source : EmittedShape {
         const IsLeaf &leaf;
         bool is_leaf(uint32_t i) const { return leaf(i); }
     };
-    return open_largest<Width>(Source{{nodes}, is_leaf}, root, kids);
+    return open_largest<Width>(Source{{nodes, extent_scale}, is_leaf}, root, kids);
 }
 
 } // namespace aacbvh
