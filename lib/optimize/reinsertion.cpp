@@ -38,7 +38,8 @@ uint64_t Reinsertion::round() {
     const size_t count = preorder();
     moves_.resize(count);
     found_.resize(count);
-    root_area_ = t_.boxes[t_.root].area();
+    area_scale_ = extent_scale_of(t_.boxes[t_.root]);
+    root_area_ = half_area(t_.boxes[t_.root]);
     ctx_.poll();
 
     // Searches, on the tree as it is: order_[0, count) are every node in
@@ -94,7 +95,7 @@ Reinsertion::Move Reinsertion::search(uint32_t node) const {
     const uint32_t p = parent_[node];
     if (p == kNone || parent_[p] == kNone) return best;
     const Box nb = t_.boxes[node];
-    const double node_area = nb.area();
+    const double node_area = half_area(nb);
     double best_delta = -kMinGain * root_area_;
 
     // A target X in the sub-tree of another child of ancestor Y costs,
@@ -118,10 +119,10 @@ Reinsertion::Move Reinsertion::search(uint32_t node) const {
     };
     auto reach = [&](double cost, uint32_t id) {
         const Box &xb = t_.boxes[id];
-        const double joined = unite(xb, nb).area();
+        const double joined = joined_half_area(xb, nb);
         consider(cost + joined, id);
         if (atomic(id)) return;
-        const double below = cost + (joined - xb.area()); // id grows by the node
+        const double below = cost + (joined - half_area(xb)); // id grows by the node
         const double bound = below + node_area;
         if (!(bound < best_delta) || size == int(sizeof heap / sizeof heap[0])) return;
         int i = size++;
@@ -148,7 +149,7 @@ Reinsertion::Move Reinsertion::search(uint32_t node) const {
     };
 
     // Taking the node out removes its parent; the sibling takes its place.
-    double fixed = -t_.boxes[p].area();
+    double fixed = -half_area(t_.boxes[p]);
     const uint32_t s = sibling(node);
     reach(fixed, s);
     Box without = t_.boxes[s]; // the current ancestor's contents without the node
@@ -159,8 +160,8 @@ Reinsertion::Move Reinsertion::search(uint32_t node) const {
         const uint32_t other = t_.left(y) == on_path ? t_.right(y) : t_.left(y);
         reach(fixed, other); // y keeps the node: unchanged
         without = unite(without, t_.boxes[other]);
-        const double y_area = t_.boxes[y].area();
-        fixed -= y_area - without.area(); // y shrinks once the node leaves it
+        const double y_area = half_area(t_.boxes[y]);
+        fixed -= y_area - half_area(without); // y shrinks once the node leaves it
         // Inserting above y: the new node has y's current box.
         consider(fixed + y_area, y);
         on_path = y;

@@ -20,6 +20,7 @@
 // thread count.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 
 #include "build/binary_tree.h"
@@ -54,6 +55,19 @@ private:
         uint32_t target; ///< it becomes this node's sibling; UINT32_MAX: no move
     };
     bool atomic(uint32_t id) const { return t_.is_leaf(id) || choices_.leaves(id - n_) == 1; }
+    /// Half surface areas as the searches weigh them: in single precision,
+    /// on extents scaled by the tree's extent_scale_of() (core/box.h); in
+    /// double they cost a third of the search's instructions
+    /// (docs/PERFORMANCE.md, row 180). The root's cost check after the round
+    /// (optimize/treelet_optimizer.cpp) is in double, so rounding here can
+    /// only make a round be undone.
+    float half_area(const Box &b) const { return scaled_half_area(b, area_scale_); }
+    float joined_half_area(const Box &a, const Box &b) const {
+        const float dx = (std::max(a.hi[0], b.hi[0]) - std::min(a.lo[0], b.lo[0])) * area_scale_;
+        const float dy = (std::max(a.hi[1], b.hi[1]) - std::min(a.lo[1], b.lo[1])) * area_scale_;
+        const float dz = (std::max(a.hi[2], b.hi[2]) - std::min(a.lo[2], b.lo[2])) * area_scale_;
+        return dx * dy + dy * dz + dz * dx;
+    }
     uint32_t sibling(uint32_t id) const;
     size_t preorder();
     Move search(uint32_t node) const;
@@ -71,6 +85,7 @@ private:
     BuildContext &ctx_;
     const uint32_t n_;
     double root_area_ = 0.0;
+    float area_scale_ = 1.0f; ///< extent_scale_of() the root's box, set by round()
     Array<uint32_t> parent_;
     Array<uint32_t> order_; ///< the nodes searched, in pre-order
     Array<uint32_t> stack_;
