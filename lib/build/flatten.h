@@ -57,6 +57,14 @@ struct FlattenRule {
         }
         return c;
     }
+    /// The cost of inner() below alone, from the children's costs and the
+    /// primitives below (the same operations: the same double).
+    double inner_cost(const Box &box, double l, double r, uint32_t prims) const {
+        const double area = this->area(box);
+        const double split = traversal_cost * area + l + r;
+        const double as_leaf = intersection_cost * area * prims;
+        return prims <= max_leaf_size && as_leaf <= split ? as_leaf : split;
+    }
     /// The decision for an inner node whose children chose l and r.
     SubtreeChoice inner(const Box &box, const SubtreeChoice &l, const SubtreeChoice &r) const {
         const double area = this->area(box);

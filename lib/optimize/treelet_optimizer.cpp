@@ -163,24 +163,29 @@ private:
         }
         if (nl < 3) return false; // two leaves have one topology
 
-        // best[S]: the cheapest sub-tree over the treelet leaves in S (cost,
-        // primitives, leaves kept, as flattening decides them); side[S]: the
-        // part holding S's lowest leaf in it (0 when it became one leaf).
+        // cost[S]: the cost of the cheapest sub-tree over the treelet leaves
+        // in S, as flattening decides it (FlattenRule::inner_cost(): the
+        // whole choice, with the packet-leaf one, is made only for the
+        // nodes installed, docs/PERFORMANCE.md row 181); prims[S]: the
+        // primitives below; side[S]: the part holding S's lowest leaf.
         Box box[kSubsets];
-        SubtreeChoice best[kSubsets];
-        double cost[kSubsets]; // best[].cost, packed for the inner loop
+        double cost[kSubsets];
+        uint32_t prims[kSubsets];
         uint8_t side[kSubsets];
+        SubtreeChoice leaf_choice[kTreeletLeaves];
         const uint32_t full = (1u << nl) - 1;
         for (int i = 0; i < nl; ++i) {
             box[1u << i] = t_.boxes[leaf[i]];
-            best[1u << i] = choice(leaf[i]);
-            cost[1u << i] = best[1u << i].cost;
+            leaf_choice[i] = choice(leaf[i]);
+            cost[1u << i] = leaf_choice[i].cost;
+            prims[1u << i] = leaf_choice[i].prims;
         }
         for (uint32_t s = 3; s <= full; ++s) {
             const uint32_t low = s & (0u - s);
             if (s == low) continue;
             const uint32_t rest = s ^ low;
             box[s] = unite(box[rest], box[low]);
+            prims[s] = prims[rest] + prims[low];
             double split_cost = cost[rest] + cost[low];
             uint32_t split_side = low;
             // The other partitions: low plus a non-empty proper part of rest.
@@ -192,12 +197,11 @@ private:
                     split_side = part;
                 }
             }
-            best[s] = rule_.inner(box[s], best[split_side], best[s ^ split_side]);
-            cost[s] = best[s].cost;
+            cost[s] = rule_.inner_cost(box[s], cost[split_side], cost[s ^ split_side], prims[s]);
             side[s] = uint8_t(split_side);
         }
         const SubtreeChoice old = choices_.get(root - n_);
-        if (!(best[full].cost < old.cost * (1.0 - kMinGain))) return false;
+        if (!(cost[full] < old.cost * (1.0 - kMinGain))) return false;
 
         // Install: the treelet's inner nodes are reused, the root first;
         // pre-order ids and children, then boxes and choices bottom-up.
@@ -224,9 +228,17 @@ private:
             }
             t_.set_children(f.id, child[0], child[1]);
         }
+        // The installed nodes' whole choices, children first, from their
+        // parts' (in double, as the costs above were summed).
+        SubtreeChoice made[kSubsets];
+        auto part_choice = [&](uint32_t part) -> const SubtreeChoice & {
+            return (part & (part - 1)) == 0 ? leaf_choice[__builtin_ctz(part)] : made[part];
+        };
         for (int k = no; k-- > 0;) {
-            t_.boxes[order[k].id] = box[order[k].set];
-            choices_.set(order[k].id - n_, best[order[k].set]);
+            const uint32_t set = order[k].set;
+            made[set] = rule_.inner(box[set], part_choice(side[set]), part_choice(set ^ side[set]));
+            t_.boxes[order[k].id] = box[set];
+            choices_.set(order[k].id - n_, made[set]);
         }
         return true;
     }
