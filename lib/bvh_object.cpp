@@ -474,17 +474,22 @@ void BvhObject::optimize(uint32_t passes) {
         return;
     }
     // Like a build, into temporaries: the handle changes only on success.
-    // The current tree, made once from the packets where only its shape is kept.
-    Bvh remade;
-    if (compact()) remake_tree(remade);
-    const Bvh &current = compact() ? remade : bvh_;
-    const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost, false,
-                           extent_scale_of(current.nodes[0].box)};
+    // The SAH as stats report it, measured before the tree changes.
+    const double before = figures().areas.sah_cost(params.traversal_cost, params.intersection_cost);
     Bvh result;
     {
         BinaryTree tree;
-        unflatten(current, geometry_, ctx, tree);
+        {
+            // The current shape: where the handle keeps it compact, decoded
+            // without boxes (unflatten() boxes the primitives itself).
+            Array<Node> decoded;
+            if (compact()) topology_.decode(decoded);
+            const Array<Node> &shape = compact() ? decoded : bvh_.nodes;
+            unflatten(shape.data(), shape.size(), bvh_.prim_ids.data(), bvh_.prim_ids.size(), geometry_, ctx, tree);
+        }
         ctx.report(0.05);
+        const FlattenRule rule{params.max_leaf_size, params.traversal_cost, params.intersection_cost, false,
+                               extent_scale_of(tree.boxes[tree.root])};
         SubtreeChoices choices;
         choose_subtrees(tree, rule, ctx, choices);
         optimize_tree(tree, rule, choices, passes, ctx, 0.1, 0.85);
@@ -494,7 +499,6 @@ void BvhObject::optimize(uint32_t passes) {
     // The SAH as stats report it never rises: a tree that would cost more
     // (rounding, or leaves over a max_leaf_size lowered since the build) is
     // not taken.
-    const double before = sum_areas(current, scheduler_).sah_cost(params.traversal_cost, params.intersection_cost);
     const double after = sum_areas(result, scheduler_).sah_cost(params.traversal_cost, params.intersection_cost);
     if (!(after < before)) {
         ctx.report(1.0);

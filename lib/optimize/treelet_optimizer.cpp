@@ -288,8 +288,8 @@ OptimizeReport optimize_tree(BinaryTree &tree, const FlattenRule &rule, SubtreeC
     return report;
 }
 
-void unflatten(const Bvh &bvh, const Geometry &geometry, BuildContext &ctx, BinaryTree &out) {
-    const size_t n = bvh.prim_ids.size();
+void unflatten(const Node *nodes, size_t node_count, const uint32_t *prim_ids, size_t n, const Geometry &geometry,
+               BuildContext &ctx, BinaryTree &out) {
     if (n == 0) {
         out = BinaryTree();
         return;
@@ -298,18 +298,18 @@ void unflatten(const Bvh &bvh, const Geometry &geometry, BuildContext &ctx, Bina
     Scheduler &sched = ctx.scheduler();
     sched.parallel_for(0, n, size_t(1) << 13, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i) {
-            out.prim_ids[i] = bvh.prim_ids[i];
-            out.boxes[i] = geometry.primitive_box(bvh.prim_ids[i]);
+            out.prim_ids[i] = prim_ids[i];
+            out.boxes[i] = geometry.primitive_box(prim_ids[i]);
         }
     });
     ctx.check_cancelled();
     // Children sit after their parent in the Bvh: a reverse sweep meets both
     // children of a node before it. id_of maps Bvh nodes to tree ids.
-    Array<uint32_t> id_of(bvh.nodes.size());
+    Array<uint32_t> id_of(node_count);
     uint32_t next = uint32_t(n);
     std::vector<uint32_t> stack;
-    for (size_t j = bvh.nodes.size(); j-- > 0;) {
-        const Node &node = bvh.nodes[j];
+    for (size_t j = node_count; j-- > 0;) {
+        const Node &node = nodes[j];
         if (!node.is_leaf()) {
             const uint32_t id = next++, l = id_of[node.first], r = id_of[node.first + 1];
             out.set_children(id, l, r);

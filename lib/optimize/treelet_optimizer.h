@@ -44,10 +44,14 @@ struct OptimizeReport {
 OptimizeReport optimize_tree(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, uint32_t passes,
                              BuildContext &ctx, double from, double to);
 
-/// The one-primitive-per-leaf BinaryTree of a finished Bvh, for optimize_tree:
-/// leaf i is slot i of bvh.prim_ids, boxed from the geometry; the Bvh's inner
-/// nodes are kept and each leaf of several primitives becomes a balanced
-/// sub-tree over its slots. Boxes are recomputed from the primitives.
-void unflatten(const Bvh &bvh, const Geometry &geometry, BuildContext &ctx, BinaryTree &out);
+/// The one-primitive-per-leaf BinaryTree of a finished tree's shape, for
+/// optimize_tree: leaf i is slot i of prim_ids[0, n), boxed from the
+/// geometry; the inner nodes of `nodes` (emitted layout, node_count of them;
+/// only their first and count are read, so a shape decoded without boxes
+/// serves: bvh/compact_topology.h) are kept and each leaf of several
+/// primitives becomes a balanced sub-tree over its slots. Boxes are computed
+/// from the primitives.
+void unflatten(const Node *nodes, size_t node_count, const uint32_t *prim_ids, size_t n, const Geometry &geometry,
+               BuildContext &ctx, BinaryTree &out);
 
 } // namespace aacbvh
