@@ -37,7 +37,6 @@ uint64_t Reinsertion::round() {
     flags_.assign(slots, 0);
     const size_t count = preorder();
     moves_.resize(count);
-    found_.resize(count);
     area_scale_ = extent_scale_of(t_.boxes[t_.root]);
     root_area_ = half_area(t_.boxes[t_.root]);
     ctx_.poll();
@@ -49,20 +48,23 @@ uint64_t Reinsertion::round() {
         ctx_.poll();
     });
 
-    // Best first; node ids break ties so the order is fixed.
+    // The moves found, packed to the front and sorted where they lie, best
+    // first; node ids break ties so the order is fixed. (Sorting indices
+    // into the moves read each compared move through its index: after a
+    // refit the dragon finds 400 K moves a round, whose sort took 50 ms.)
     size_t nf = 0;
     for (size_t i = 0; i < count; ++i)
-        if (moves_[i].target != kNone) found_[nf++] = uint32_t(i);
-    std::sort(found_.begin(), found_.begin() + nf, [&](uint32_t a, uint32_t b) {
-        if (moves_[a].delta != moves_[b].delta) return moves_[a].delta < moves_[b].delta;
-        return moves_[a].node < moves_[b].node;
+        if (moves_[i].target != kNone) moves_[nf++] = moves_[i];
+    std::sort(moves_.begin(), moves_.begin() + nf, [](const Move &a, const Move &b) {
+        if (a.delta != b.delta) return a.delta < b.delta;
+        return a.node < b.node;
     });
     ctx_.poll(); // the last chance to cancel with the tree untouched
 
     undo_log_.reserve(3 * nf); // before the first move: a failure leaves the tree as it was
     uint64_t made = 0;
     for (size_t k = 0; k < nf; ++k)
-        if (take(moves_[found_[k]])) ++made;
+        if (take(moves_[k])) ++made;
     return made;
 }
 

@@ -91,7 +91,6 @@ private:
     Array<uint32_t> stack_;
     Array<uint8_t> flags_;  ///< 1: a move taken this round changed this node
     Array<Move> moves_;
-    Array<uint32_t> found_;
     Array<Children> undo_log_;       ///< the last round's changes, in order (3 per move)
     uint32_t root_before_ = 0;       ///< the root before the last round
 };
