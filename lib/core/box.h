@@ -63,13 +63,15 @@ inline Box unite(const Box &a, const Box &b) {
 /// scaled by it stay in single precision's range for any scene (coordinates
 /// near 1e30 have areas near 1e60, near 1e-30 areas near 1e-60), and,
 /// multiplying exactly, a scene scaled by a power of two has the same scaled
-/// areas bit for bit.
+/// areas bit for bit. At most 2^126, the largest finite power of two that
+/// keeps headroom: a denormal extent (below 2^-126) is brought above 2^-24,
+/// not to [0.5, 1), where 2^-exponent itself would be infinite.
 inline float extent_scale_of(const Box &bounds) {
     const float largest = std::max({bounds.extent(0), bounds.extent(1), bounds.extent(2)});
     if (!(largest > 0.0f) || !std::isfinite(largest)) return 1.0f;
     int exponent = 0;
     std::frexp(largest, &exponent);
-    return std::ldexp(1.0f, -exponent);
+    return std::ldexp(1.0f, std::min(-exponent, 126));
 }
 
 /// Half surface area of a filled box (see Box::half_area_of_filled()) whose
