@@ -57,22 +57,28 @@ struct FlattenRule {
         }
         return c;
     }
-    /// The cost of inner() below alone, from the children's costs and the
-    /// primitives below (the same operations: the same double).
-    double inner_cost(const Box &box, double l, double r, uint32_t prims) const {
+    /// The cost of an inner node over `prims` primitives whose children cost
+    /// l and r: one leaf's where that is cheaper (then `leaf` is set) and
+    /// the primitives fit one, else the split's.
+    double weigh(const Box &box, double l, double r, uint32_t prims, bool &leaf) const {
         const double area = this->area(box);
         const double split = traversal_cost * area + l + r;
         const double as_leaf = intersection_cost * area * prims;
-        return prims <= max_leaf_size && as_leaf <= split ? as_leaf : split;
+        leaf = prims <= max_leaf_size && as_leaf <= split;
+        return leaf ? as_leaf : split;
+    }
+    /// The cost of inner() below alone, from the children's costs and the
+    /// primitives below.
+    double inner_cost(const Box &box, double l, double r, uint32_t prims) const {
+        bool leaf;
+        return weigh(box, l, r, prims, leaf);
     }
     /// The decision for an inner node whose children chose l and r.
     SubtreeChoice inner(const Box &box, const SubtreeChoice &l, const SubtreeChoice &r) const {
-        const double area = this->area(box);
         const uint32_t prims = l.prims + r.prims;
-        const double split = traversal_cost * area + l.cost + r.cost;
-        const double as_leaf = intersection_cost * area * prims;
-        SubtreeChoice c = prims <= max_leaf_size && as_leaf <= split ? SubtreeChoice{as_leaf, prims, 1}
-                                                                     : SubtreeChoice{split, prims, l.leaves + r.leaves};
+        bool leaf;
+        const double cost = weigh(box, l.cost, r.cost, prims, leaf);
+        SubtreeChoice c{cost, prims, leaf ? 1u : l.leaves + r.leaves};
         if (packets) {
             // A leaf of the binary layout is a packet leaf whatever its size;
             // above kMaxPacketLeaf primitives no cost is read

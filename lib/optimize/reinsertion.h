@@ -20,7 +20,6 @@
 // thread count.
 #pragma once
 
-#include <algorithm>
 #include <cstdint>
 
 #include "build/binary_tree.h"
@@ -62,12 +61,7 @@ private:
     /// (optimize/treelet_optimizer.cpp) is in double, so rounding here can
     /// only make a round be undone.
     float half_area(const Box &b) const { return scaled_half_area(b, area_scale_); }
-    float joined_half_area(const Box &a, const Box &b) const {
-        const float dx = (std::max(a.hi[0], b.hi[0]) - std::min(a.lo[0], b.lo[0])) * area_scale_;
-        const float dy = (std::max(a.hi[1], b.hi[1]) - std::min(a.lo[1], b.lo[1])) * area_scale_;
-        const float dz = (std::max(a.hi[2], b.hi[2]) - std::min(a.lo[2], b.lo[2])) * area_scale_;
-        return dx * dy + dy * dz + dz * dx;
-    }
+    float joined_half_area(const Box &a, const Box &b) const { return half_area(unite(a, b)); }
     uint32_t sibling(uint32_t id) const;
     size_t preorder();
     Move search(uint32_t node) const;
