@@ -9,7 +9,7 @@ namespace {
 
 constexpr unsigned kDigitBits = 11;
 constexpr size_t kBuckets = size_t(1) << kDigitBits;
-constexpr size_t kMinChunk = 1u << 16;
+constexpr size_t kMinChunk = 1u << 14;
 
 } // namespace
 
