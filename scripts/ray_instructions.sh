@@ -3,7 +3,12 @@
 # measure behind docs/PERFORMANCE.md rows 99-106 (wall time on a shared VM
 # moves by more than most single changes). For each scene it runs
 #
-#   valgrind --tool=callgrind aacbvh-batch-threads --scenes SCENE --threads 1 --runs 1 --rays N
+#   valgrind --tool=callgrind aacbvh-batch-threads --scenes SCENE --threads 1 --runs 1 --rays N --embree
+#
+# and, where the program was built with Embree 3, prints Embree's
+# rtcIntersect1 and rtcOccluded1 per ray on the same rays beside ours
+# (valgrind has no AVX-512, so Embree runs its AVX2 kernels there, as ours
+# does; docs/PERFORMANCE.md, "Instructions per ray against Embree's").
 #
 # and prints the instructions of the 8-wide kernel's entry points (the one the
 # CPU picked: wide8_avx2 on an AVX2 machine; valgrind has no AVX-512),
@@ -36,13 +41,14 @@ cmake --build "$build" --target aacbvh-batch-threads -j2 > /dev/null
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 [ $# -gt 0 ] || set -- bunny.obj
-printf '%-22s %14s %14s %10s %10s\n' scene "closest" "any hit" "per ray" "per ray"
+printf '%-22s %14s %14s %10s %10s %14s %14s\n' scene "closest" "any hit" "per ray" "per ray" \
+  "Embree closest" "Embree any hit"
 for scene in "$@"; do
   valgrind --tool=callgrind --callgrind-out-file="$out/cg" "$build/examples/aacbvh-batch-threads" \
-    --scenes "$scene" --threads 1 --runs 1 --rays "$rays" > "$out/log" 2>&1
+    --scenes "$scene" --threads 1 --runs 1 --rays "$rays" --embree > "$out/log" 2>&1
   # Each entry point's inclusive instructions and its calls (one a ray),
   # summed over its callers in the caller tree.
-  callgrind_annotate --tree=caller --inclusive=yes "$out/cg" 2> /dev/null |
+  callgrind_annotate --tree=caller --inclusive=yes --threshold=100 "$out/cg" 2> /dev/null |
     awk -v scene="$scene" '
       function ncalls(s,   k, parts, i, f) {
         k = split(s, parts, "(")
@@ -59,9 +65,20 @@ for scene in "$@"; do
         # lines come from; the block with callers is the whole function.
         if (s == 0) next
         if ($0 ~ /intersect_entry/) { c = x; cr = s } else { a = x; ar = s }
+        next
+      }
+      # Embree entry points (exported), inclusive of its kernels.
+      /\* .*rtc(Intersect|Occluded)1 / {
+        s = 0; for (i = 0; i < n; i++) s += calls[i]
+        x = $1; gsub(",", "", x)
+        if (s == 0) next
+        if ($0 ~ /rtcIntersect1/) { ec = x; ecr = s } else { ea = x; ear = s }
       }
       END {
         if (!c || !cr) { printf "%-22s no 8-wide entry points counted (symbols stripped?)\n", scene; exit 1 }
-        printf "%-22s %14d %14d %10.0f %10.0f\n", scene, c, a, c / cr, (ar ? a / ar : 0)
+        printf "%-22s %14d %14d %10.0f %10.0f", scene, c, a, c / cr, (ar ? a / ar : 0)
+        if (ecr) printf " %14.0f %14.0f", ec / ecr, (ear ? ea / ear : 0)
+        else printf " %14s %14s", "n/a", "n/a"
+        printf "\n"
       }'
 done

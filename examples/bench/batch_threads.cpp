@@ -6,9 +6,14 @@
 // and the median Mrays/s of several runs is printed per thread count with the
 // speedup over the first count. Every thread count must give exactly the
 // first count's answers: the exit status is 1 when one differs (or a call
-// fails), else 0. Speed is reported, never asserted.
+// fails), else 0. Speed is reported, never asserted. With --embree (when the
+// benchmark was compiled with Embree 3), the same rays also go through
+// Embree's own scene, one rtcIntersect1 / rtcOccluded1 call a ray on one
+// thread, as aacbvh-bench times it: its Mrays/s and ours on the first thread
+// count over it, from the same run; scripts/ray_instructions.sh counts both
+// kernels' instructions a ray this way.
 //
-//   aacbvh-batch-threads [--scenes LIST] [--rays N|WxH] [--threads LIST] [--runs N]
+//   aacbvh-batch-threads [--scenes LIST] [--rays N|WxH] [--threads LIST] [--runs N] [--embree]
 #include <aacbvh/aacbvh.h>
 
 #include <algorithm>
@@ -21,6 +26,7 @@
 #include <vector>
 
 #include "cli.h"
+#include "embree_bench.h"
 #include "rays.h"
 #include "scene.h"
 
@@ -37,11 +43,12 @@ struct Options {
     uint32_t width = 384, height = 384;
     std::vector<uint32_t> threads;
     int runs = 5;
+    bool embree = false;
 };
 
 void usage(const char *argv0) {
     std::fprintf(stderr,
-                 "usage: %s [--scenes LIST] [--rays N|WxH] [--threads LIST] [--runs N]\n"
+                 "usage: %s [--scenes LIST] [--rays N|WxH] [--threads LIST] [--runs N] [--embree]\n"
                  "  --scenes LIST   comma-separated OBJ paths, names of OBJ files in the scenes\n"
                  "                  directory, 'shared' (every *.obj there), 'procedural' or\n"
                  "                  'procedural-small'; default: every *.obj in %s,\n"
@@ -49,7 +56,9 @@ void usage(const char *argv0) {
                  "  --rays N|WxH    primary rays: an N x N image or W x H (default 384: 147,456 rays)\n"
                  "  --threads LIST  context thread counts, e.g. 1,2 (default 1 and this machine's\n"
                  "                  hardware threads); speedups are over the first\n"
-                 "  --runs N        timed passes per ray kind and thread count (default 5)\n",
+                 "  --runs N        timed passes per ray kind and thread count (default 5)\n"
+                 "  --embree        also trace the rays through Embree 3's scene, one thread\n"
+                 "                  (when compiled in): its Mrays/s, and ours over it\n",
                  argv0, AACBVH_SCENES_DIR[0] ? AACBVH_SCENES_DIR : "(none)");
 }
 
@@ -66,6 +75,8 @@ bool parse(int argc, char **argv, Options &o) {
                 return false;
             o.width = uint32_t(w);
             o.height = uint32_t(h);
+        } else if (!std::strcmp(argv[i], "--embree")) {
+            o.embree = true;
         } else {
             return false;
         }
@@ -141,6 +152,23 @@ bool run_scene(const Scene &scene, const Options &opt) {
     make_secondary_rays(rays[kPrimary], primary.hits, scene.vertices, scene.indices, camera, bounds.diagonal(),
                         0x5EED, rays[kShadow], rays[kDiffuse]);
 
+    // Embree's scene on the same rays (one thread, single-ray calls).
+    double embree_mrays[kRayKindCount] = {};
+    bool with_embree = false;
+    if (opt.embree && embree_compiled()) {
+        RaySets sets;
+        sets.width = opt.width;
+        sets.height = opt.height;
+        for (int kind = 0; kind < kRayKindCount; ++kind) sets.rays[kind] = rays[kind];
+        std::vector<double> build_seconds;
+        uint64_t embree_hits[kRayKindCount] = {};
+        double embree_bytes = 0.0;
+        std::string err;
+        with_embree = embree_scene_bench(scene.vertices, scene.indices, 1, opt.runs, &sets, build_seconds,
+                                         embree_mrays, embree_hits, embree_bytes, err);
+        if (!with_embree) std::fprintf(stderr, "%s: Embree: %s\n", scene.name.c_str(), err.c_str());
+    }
+
     bool ok = true;
     for (int kind = 0; kind < kRayKindCount; ++kind) {
         std::printf("%-18s %-8s %8zu", scene.name.c_str(), ray_kind_name(kind), rays[kind].size());
@@ -177,6 +205,9 @@ bool run_scene(const Scene &scene, const Options &opt) {
                             same ? "" : " ANSWERS DIFFER");
             }
         }
+        if (with_embree)
+            std::printf("  %8.2f (%.2fx)", embree_mrays[kind],
+                        embree_mrays[kind] > 0.0 ? first_mrays / embree_mrays[kind] : 0.0);
         std::printf("\n");
     }
     return ok;
@@ -197,6 +228,12 @@ int main(int argc, char **argv) {
                 opt.runs, opt.threads[0], opt.threads[0] == 1 ? "" : "s");
     std::printf("%-18s %-8s %8s", "scene", "rays", "count");
     for (uint32_t t : opt.threads) std::printf("  %5u thr", t);
+    if (opt.embree) {
+        if (embree_compiled())
+            std::printf("  Embree %s, 1 thr (ours, %u thr, over it)", embree_version().c_str(), opt.threads[0]);
+        else
+            std::printf("  (Embree: not compiled in)");
+    }
     std::printf("\n");
     const bool ok = for_each_scene(opt.scenes, AACBVH_SCENES_DIR, "aacbvh-batch-threads",
                                    [&](const Scene &scene) { return run_scene(scene, opt); });

@@ -50,10 +50,17 @@ endif()
 # aacbvh-batch-threads: Mrays/s of whole ray batches at each context thread
 # count (the rays issue: a batch uses every thread), answers compared across
 # the counts.
-add_executable(aacbvh-batch-threads ${_bench_dir}/batch_threads.cpp)
+# With Embree compiled in (as for aacbvh-bench), --embree puts Embree's scene
+# beside us on the same rays.
+add_executable(aacbvh-batch-threads ${_bench_dir}/batch_threads.cpp ${_bench_dir}/embree_bench.cpp)
 target_compile_options(aacbvh-batch-threads PRIVATE -Wall -Wextra)
 target_link_libraries(aacbvh-batch-threads PRIVATE aacbvh_bench_core aacbvh_scene)
 target_compile_definitions(aacbvh-batch-threads PRIVATE AACBVH_SCENES_DIR="${AACBVH_SCENES_DIR}")
+if(AACBVH_BENCH_EMBREE AND EMBREE3_INCLUDE_DIR AND EMBREE3_LIBRARY AND NOT AACBVH_SANITIZE)
+  target_compile_definitions(aacbvh-batch-threads PRIVATE AACBVH_BENCH_HAVE_EMBREE=1)
+  target_include_directories(aacbvh-batch-threads PRIVATE ${EMBREE3_INCLUDE_DIR})
+  target_link_libraries(aacbvh-batch-threads PRIVATE ${EMBREE3_LIBRARY})
+endif()
 
 # aacbvh-build-phases: a build's time per phase (input, sort, clustering,
 # layouts) at each context thread count, stamped by a progress callback.
@@ -133,6 +140,13 @@ if(AACBVH_BUILD_TESTS)
   bench_expect_test(bench_batch_threads_smoke aacbvh-batch-threads
     "--scenes procedural-small --rays 48 --threads 1,2,3 --runs 1"
     "procedural-small +diffuse +[0-9]+ +[0-9.]+ +[0-9.]+ \\([0-9.]+x\\) +[0-9.]+ \\([0-9.]+x\\)\n")
+  # With Embree compiled in, --embree traces the same rays through its scene
+  # and prints its Mrays/s and our ratio to it on every ray kind.
+  if(AACBVH_BENCH_EMBREE AND EMBREE3_INCLUDE_DIR AND EMBREE3_LIBRARY AND NOT AACBVH_SANITIZE)
+    bench_expect_test(bench_batch_threads_embree aacbvh-batch-threads
+      "--scenes procedural-small --rays 48 --threads 1 --runs 1 --embree"
+      "Embree 3\\.[0-9.]+, 1 thr.*procedural-small +primary +[0-9]+ +[0-9.]+ +[0-9.]+ \\([0-9.]+x\\)\n.*procedural-small +shadow +[0-9]+ +[0-9.]+ +[0-9.]+ \\([0-9.]+x\\)\n.*procedural-small +diffuse +[0-9]+ +[0-9.]+ +[0-9.]+ \\([0-9.]+x\\)\n")
+  endif()
 
   # Smoke tests of aacbvh-build-phases: a small generated scene at one, two
   # and three threads, fresh handles and one kept-memory handle; it exits 1
