@@ -3,11 +3,26 @@
 # this benchmark only; the library and its tests never depend on it.
 set(_bench_dir ${CMAKE_CURRENT_LIST_DIR})
 
-option(AACBVH_BENCH_EMBREE "Compare with Embree 3 in aacbvh-bench when it is found" ON)
+option(AACBVH_BENCH_EMBREE "Compare with Embree 3 in the benchmark programs when it is found" ON)
 if(AACBVH_BENCH_EMBREE)
   find_path(EMBREE3_INCLUDE_DIR embree3/rtcore.h)
   find_library(EMBREE3_LIBRARY NAMES embree3)
 endif()
+# Sanitizer builds leave Embree out: it is not instrumented, so ThreadSanitizer
+# reports races inside it that are not ours, and its timings mean nothing there.
+set(_bench_embree OFF)
+if(AACBVH_BENCH_EMBREE AND EMBREE3_INCLUDE_DIR AND EMBREE3_LIBRARY AND NOT AACBVH_SANITIZE)
+  set(_bench_embree ON)
+endif()
+# Compiles TARGET with Embree 3 beside us (AACBVH_BENCH_HAVE_EMBREE) where
+# it is used; elsewhere its embree_bench.cpp calls report it missing.
+function(bench_use_embree target)
+  if(_bench_embree)
+    target_compile_definitions(${target} PRIVATE AACBVH_BENCH_HAVE_EMBREE=1)
+    target_include_directories(${target} PRIVATE ${EMBREE3_INCLUDE_DIR})
+    target_link_libraries(${target} PRIVATE ${EMBREE3_LIBRARY})
+  endif()
+endfunction()
 
 add_library(aacbvh_bench_core STATIC
   ${_bench_dir}/ray_cost.cpp
@@ -23,12 +38,8 @@ add_executable(aacbvh-bench
 target_compile_options(aacbvh-bench PRIVATE -Wall -Wextra)
 target_link_libraries(aacbvh-bench PRIVATE aacbvh_bench_core aacbvh_scene Threads::Threads)
 target_compile_definitions(aacbvh-bench PRIVATE AACBVH_SCENES_DIR="${AACBVH_SCENES_DIR}")
-# Sanitizer builds leave Embree out: it is not instrumented, so ThreadSanitizer
-# reports races inside it that are not ours, and its timings mean nothing there.
-if(AACBVH_BENCH_EMBREE AND EMBREE3_INCLUDE_DIR AND EMBREE3_LIBRARY AND NOT AACBVH_SANITIZE)
-  target_compile_definitions(aacbvh-bench PRIVATE AACBVH_BENCH_HAVE_EMBREE=1)
-  target_include_directories(aacbvh-bench PRIVATE ${EMBREE3_INCLUDE_DIR})
-  target_link_libraries(aacbvh-bench PRIVATE ${EMBREE3_LIBRARY})
+bench_use_embree(aacbvh-bench)
+if(_bench_embree)
   message(STATUS "aacbvh-bench: comparing with Embree 3 (${EMBREE3_LIBRARY})")
 else()
   message(STATUS "aacbvh-bench: Embree 3 not found or disabled, benchmark without it")
@@ -41,11 +52,7 @@ add_executable(aacbvh-hit-accuracy ${_bench_dir}/hit_accuracy.cpp)
 target_compile_options(aacbvh-hit-accuracy PRIVATE -Wall -Wextra)
 target_link_libraries(aacbvh-hit-accuracy PRIVATE aacbvh_bench_core aacbvh_scene)
 target_compile_definitions(aacbvh-hit-accuracy PRIVATE AACBVH_SCENES_DIR="${AACBVH_SCENES_DIR}")
-if(AACBVH_BENCH_EMBREE AND EMBREE3_INCLUDE_DIR AND EMBREE3_LIBRARY AND NOT AACBVH_SANITIZE)
-  target_compile_definitions(aacbvh-hit-accuracy PRIVATE AACBVH_BENCH_HAVE_EMBREE=1)
-  target_include_directories(aacbvh-hit-accuracy PRIVATE ${EMBREE3_INCLUDE_DIR})
-  target_link_libraries(aacbvh-hit-accuracy PRIVATE ${EMBREE3_LIBRARY})
-endif()
+bench_use_embree(aacbvh-hit-accuracy)
 
 # aacbvh-batch-threads: Mrays/s of whole ray batches at each context thread
 # count (the rays issue: a batch uses every thread), answers compared across
@@ -56,11 +63,7 @@ add_executable(aacbvh-batch-threads ${_bench_dir}/batch_threads.cpp ${_bench_dir
 target_compile_options(aacbvh-batch-threads PRIVATE -Wall -Wextra)
 target_link_libraries(aacbvh-batch-threads PRIVATE aacbvh_bench_core aacbvh_scene)
 target_compile_definitions(aacbvh-batch-threads PRIVATE AACBVH_SCENES_DIR="${AACBVH_SCENES_DIR}")
-if(AACBVH_BENCH_EMBREE AND EMBREE3_INCLUDE_DIR AND EMBREE3_LIBRARY AND NOT AACBVH_SANITIZE)
-  target_compile_definitions(aacbvh-batch-threads PRIVATE AACBVH_BENCH_HAVE_EMBREE=1)
-  target_include_directories(aacbvh-batch-threads PRIVATE ${EMBREE3_INCLUDE_DIR})
-  target_link_libraries(aacbvh-batch-threads PRIVATE ${EMBREE3_LIBRARY})
-endif()
+bench_use_embree(aacbvh-batch-threads)
 
 # aacbvh-build-phases: a build's time per phase (input, sort, clustering,
 # layouts) at each context thread count, stamped by a progress callback.
@@ -142,7 +145,7 @@ if(AACBVH_BUILD_TESTS)
     "procedural-small +diffuse +[0-9]+ +[0-9.]+ +[0-9.]+ \\([0-9.]+x\\) +[0-9.]+ \\([0-9.]+x\\)\n")
   # With Embree compiled in, --embree traces the same rays through its scene
   # and prints its Mrays/s and our ratio to it on every ray kind.
-  if(AACBVH_BENCH_EMBREE AND EMBREE3_INCLUDE_DIR AND EMBREE3_LIBRARY AND NOT AACBVH_SANITIZE)
+  if(_bench_embree)
     bench_expect_test(bench_batch_threads_embree aacbvh-batch-threads
       "--scenes procedural-small --rays 48 --threads 1 --runs 1 --embree"
       "Embree 3\\.[0-9.]+, 1 thr.*procedural-small +primary +[0-9]+ +[0-9.]+ +[0-9.]+ \\([0-9.]+x\\)\n.*procedural-small +shadow +[0-9]+ +[0-9.]+ +[0-9.]+ \\([0-9.]+x\\)\n.*procedural-small +diffuse +[0-9]+ +[0-9.]+ +[0-9.]+ \\([0-9.]+x\\)\n")
