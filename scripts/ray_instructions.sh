@@ -56,22 +56,25 @@ for scene in "$@"; do
           if (parts[i] ~ /^[0-9,]+x\)/) { f = parts[i]; sub(/x\).*/, "", f); gsub(",", "", f); return f + 0 }
         return 0
       }
+      # The block now read: its calls (summed over the caller lines above
+      # it) into s, its inclusive instructions into x; false without
+      # callers (with debug info a function is listed once per source file
+      # its lines come from; the block with callers is the whole function).
+      function block(   i) {
+        s = 0; for (i = 0; i < n; i++) s += calls[i]
+        x = $1; gsub(",", "", x)
+        return s > 0
+      }
       /^ *$/ { n = 0; next }
       / < / { calls[n++] = ncalls($0); next }
       /\* .*wide8_[a-z0-9]+::.*(intersect|occluded)_entry\(/ {
-        s = 0; for (i = 0; i < n; i++) s += calls[i]
-        x = $1; gsub(",", "", x)
-        # With debug info a function is listed once per source file its
-        # lines come from; the block with callers is the whole function.
-        if (s == 0) next
+        if (!block()) next
         if ($0 ~ /intersect_entry/) { c = x; cr = s } else { a = x; ar = s }
         next
       }
       # Embree entry points (exported), inclusive of its kernels.
       /\* .*rtc(Intersect|Occluded)1 / {
-        s = 0; for (i = 0; i < n; i++) s += calls[i]
-        x = $1; gsub(",", "", x)
-        if (s == 0) next
+        if (!block()) next
         if ($0 ~ /rtcIntersect1/) { ec = x; ecr = s } else { ea = x; ear = s }
       }
       END {

@@ -51,10 +51,9 @@ void test_every_exponent(void **) {
         // The double-precision half area times scale^2, within single
         // precision's rounding, where the products stay normal floats.
         const double exact = b.area() * 0.5 * double(scale) * double(scale);
-        if (e >= -100 && double(aacbvh::scaled_half_area(b, scale)) != double(float(exact)) &&
-            std::fabs(double(aacbvh::scaled_half_area(b, scale)) - exact) > 1e-6 * exact)
-            fail_msg("extent 2^%d: scaled half area %a, expected %a", e, double(aacbvh::scaled_half_area(b, scale)),
-                     exact);
+        const double area = aacbvh::scaled_half_area(b, scale);
+        if (e >= -100 && area != double(float(exact)) && std::fabs(area - exact) > 1e-6 * exact)
+            fail_msg("extent 2^%d: scaled half area %a, expected %a", e, area, exact);
     }
 }
 
