@@ -165,17 +165,40 @@ template <class Vertices> inline bool triangle_distance_of(const TriangleRay &r,
     return clamp_to_triangle_box(r, tri, t, t);
 }
 
-/// triangle_distance_of() rounded to the float that is reported, and whether
-/// that float lies in [tmin, tmax]. The window is applied to the reported t,
-/// not to the double before rounding: a traversal's window ends at the best t
-/// reported so far, and a second triangle at exactly that t (a tie, decided
-/// by prim_id) must be accepted whichever was found first.
+/// triangle_distance_of()'s first part made elsewhere, by the same
+/// operations in the same order (for four triangles at once, say): the plane
+/// distance and whether the plane point lies in the triangle's box.
+struct PlaneDistance {
+    double plane;
+    bool inside;
+};
+
+/// triangle_distance_of() from a PlaneDistance: the same t.
+template <class Vertices>
+inline bool triangle_distance_from(const TriangleRay &r, const Vertices &tri, PlaneDistance d, double &t) {
+    t = d.plane;
+    if (d.inside) return true;
+    return clamp_to_triangle_box(r, tri, d.plane, t);
+}
+
+/// A distance th found in double (`found`: triangle_distance_of()'s answer)
+/// rounded to the float that is reported, and whether that float lies in
+/// [tmin, tmax]. The window is applied to the reported t, not to the double
+/// before rounding: a traversal's window ends at the best t reported so far,
+/// and a second triangle at exactly that t (a tie, decided by prim_id) must
+/// be accepted whichever was found first.
+inline bool report_distance(bool found, double th, float tmin, float tmax, float &t) {
+    if (!found || !(std::fabs(th) <= FLT_MAX)) return false;
+    t = float(th);
+    return t >= tmin && t <= tmax;
+}
+
+/// triangle_distance_of() reported: report_distance().
 template <class Vertices>
 inline bool reported_distance_of(const TriangleRay &r, const Vertices &tri, float tmin, float tmax, float &t) {
     double th;
-    if (!triangle_distance_of(r, tri, th) || !(std::fabs(th) <= FLT_MAX)) return false;
-    t = float(th);
-    return t >= tmin && t <= tmax;
+    const bool found = triangle_distance_of(r, tri, th);
+    return report_distance(found, th, tmin, tmax, t);
 }
 
 inline bool reported_distance(const TriangleRay &r, const float *p0, const float *p1, const float *p2, float tmin,
@@ -285,14 +308,16 @@ template <class Vertices> [[gnu::noinline, gnu::cold]] bool has_area_of(const Ve
 /// products' magnitudes, |cx by| + |ax cy| + |bx ay|) by the same operations
 /// in the same order, e.g. for four triangles at once with SIMD: the same
 /// result, without computing them again. The rare cases (values out of
-/// float range, det overflowing) go to intersect_triangle() itself.
+/// float range, det overflowing) go to intersect_triangle() itself. With
+/// Known, the caller has made the plane distance too (`known`,
+/// PlaneDistance); otherwise `known` is not read.
 ///
 /// The caller has already dropped the values with certain, mixed signs (a
 /// packet filter's rejection): values in range (finite, normal, so no NaN)
 /// then share one sign, and the two-sided test needs no second look.
-template <class Vertices>
-inline bool intersect_triangle_edges_of(const TriangleRay &r, const Vertices &tri, float eu, float ev, float ew,
-                                        float mag, float tmin, float tmax, float &t, float &u, float &v) {
+template <bool Known, class Vertices>
+inline bool finish_triangle_edges(const TriangleRay &r, const Vertices &tri, float eu, float ev, float ew, float mag,
+                                  PlaneDistance known, float tmin, float tmax, float &t, float &u, float &v) {
     const float mu = std::fabs(eu), mv = std::fabs(ev), mw = std::fabs(ew);
     const bool in_range = mu >= FLT_MIN && mv >= FLT_MIN && mw >= FLT_MIN &&
                           mu <= FLT_MAX && mv <= FLT_MAX && mw <= FLT_MAX;
@@ -300,11 +325,19 @@ inline bool intersect_triangle_edges_of(const TriangleRay &r, const Vertices &tr
     const float det = eu + ev + ew;
     if (mu + mv + mw <= 0x1p-18f * mag && !has_area_of(tri)) return false;
     if (!std::isfinite(det)) return intersect_triangle_of(r, tri, tmin, tmax, t, u, v);
-    if (!reported_distance_of(r, tri, tmin, tmax, t)) return false;
+    double th;
+    const bool found = Known ? triangle_distance_from(r, tri, known, th) : triangle_distance_of(r, tri, th);
+    if (!report_distance(found, th, tmin, tmax, t)) return false;
     const float inv_det = 1.0f / det;
     u = ev * inv_det;
     v = ew * inv_det;
     return true;
+}
+
+template <class Vertices>
+inline bool intersect_triangle_edges_of(const TriangleRay &r, const Vertices &tri, float eu, float ev, float ew,
+                                        float mag, float tmin, float tmax, float &t, float &u, float &v) {
+    return finish_triangle_edges<false>(r, tri, eu, ev, ew, mag, PlaneDistance{}, tmin, tmax, t, u, v);
 }
 
 } // namespace aacbvh

@@ -26,7 +26,13 @@
 //     of intersect_triangle() prove that lane k misses (they are computed by
 //     the same operations, so the lanes it keeps are a superset of the
 //     hits); the kept lanes' edge functions are stored in the PacketEdges.
-// The lanes a packet keeps are then finished by intersect_triangle_edges_of(),
+//   bool kPlaneDistances;
+//   void plane_distances(const TrianglePacket *, unsigned lanes,
+//                        const TriangleRay &, PacketPlanes &);
+//     where true, the PlaneDistance (trace/triangle_intersect.h) of every
+//     lane of each packet that `lanes` (as filter_packets() returned it)
+//     keeps a lane of, made as triangle_distance_of() makes it.
+// The lanes a packet keeps are then finished by finish_triangle_edges(),
 // which decides as intersect_triangle() would on the same values, so every
 // kernel reports exactly the hits of the binary traversal.
 // No lambdas here: a target region does not reach into them.
@@ -93,9 +99,19 @@ inline int sort_hits_insertion(unsigned mask, const float t_entry[8], uint32_t k
     return n;
 }
 
+/// The plane distances of one or two packets' lanes (lanes 4-7: the
+/// second), as plane_distances() makes them.
+struct alignas(32) PacketPlanes {
+    double plane[8];
+    unsigned inside; ///< bit k: lane k's plane point lies in its triangle's box
+    PlaneDistance at(unsigned k) const { return PlaneDistance{plane[k], ((inside >> k) & 1u) != 0}; }
+};
+
 /// Tests a packet leaf's lanes; true when the query is done (any hit).
 /// filter_packets() tests one packet, or two at once where the kernel's
-/// registers hold eight lanes (it says how many it took).
+/// registers hold eight lanes (it says how many it took). Where the kernel
+/// makes the kept lanes' plane distances for a whole packet at once
+/// (kPlaneDistances), the finish takes them instead of making its own.
 template <bool AnyHit>
 inline bool test_packets(const TrianglePacket *packets, uint32_t count, const TriangleRay &tray,
                          const PacketRay &pray, float tmin, HitRecord<AnyHit> &best) {
@@ -103,13 +119,16 @@ inline bool test_packets(const TrianglePacket *packets, uint32_t count, const Tr
         PacketEdges e;
         uint32_t used;
         unsigned lanes = filter_packets(packets + j, count - j, pray, e, used);
+        PacketPlanes planes;
+        if (kPlaneDistances && lanes != 0) plane_distances(packets + j, lanes, tray, planes);
         while (lanes != 0) {
             const unsigned lane = unsigned(__builtin_ctz(lanes));
             lanes &= lanes - 1;
             const PacketLane tri{packets + j + (lane >> 2), lane & 3u};
             float t, u, v;
-            if (!intersect_triangle_edges_of(tray, tri, e.eu[lane], e.ev[lane], e.ew[lane], e.mag[lane], tmin,
-                                             best.tmax, t, u, v))
+            if (!finish_triangle_edges<kPlaneDistances>(tray, tri, e.eu[lane], e.ev[lane], e.ew[lane], e.mag[lane],
+                                                        kPlaneDistances ? planes.at(lane) : PlaneDistance{}, tmin,
+                                                        best.tmax, t, u, v))
                 continue;
             if (best.offer(t, u, v, tri.packet->prim[tri.k])) return true;
         }
@@ -136,6 +155,7 @@ template <bool AnyHit, bool Packets, bool FromZero>
                                            Entry &current) {
     do {
         const Wide8Node &node = nodes[current.child];
+        __builtin_prefetch(node.child); // its own line, read once the mask is known
         alignas(32) float t_entry[8];
         unsigned mask = test_children<FromZero, !AnyHit>(node, r, tmin, bound, t_entry);
         if (mask == 0) {

@@ -165,7 +165,61 @@ inline unsigned filter_packets(const TrianglePacket *p, uint32_t available, cons
 /// a sorted node (callgrind, docs/PERFORMANCE.md row 105).
 [[gnu::always_inline]] inline int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]);
 
+/// The finish takes each kept lane's plane distance from a whole packet's,
+/// made four lanes at once (plane_distances(), below).
+constexpr bool kPlaneDistances = true;
+struct PacketPlanes;
+[[gnu::always_inline]] inline void plane_distances(const TrianglePacket *p, unsigned lanes, const TriangleRay &r,
+                                                   PacketPlanes &out);
+
 #include "trace/wide8_kernel.inl"
+
+/// A packet row (four floats) in double: exact.
+inline __m256d double_row(const float *row) { return _mm256_cvtps_pd(_mm_load_ps(row)); }
+
+/// triangle_distance_of()'s plane distance and box test for a packet's four
+/// triangles, one a lane, by the same operations in the same order (the
+/// scalar code's axis lanes become a vector each): plane[k] and bit k of
+/// the result (the plane point lies in the triangle's box) are lane k's.
+inline unsigned packet_plane_distances(const TrianglePacket &p, const TriangleRay &r, double plane[4]) {
+    __m256d e1[3], e2[3], w[3], d[3];
+    for (int a = 0; a < 3; ++a) {
+        const __m256d p0 = double_row(p.v[0][a]);
+        e1[a] = _mm256_sub_pd(double_row(p.v[1][a]), p0);
+        e2[a] = _mm256_sub_pd(double_row(p.v[2][a]), p0);
+        w[a] = _mm256_sub_pd(p0, _mm256_set1_pd(r.org_d[a]));
+        d[a] = _mm256_set1_pd(r.dir_d[a]);
+    }
+    __m256d n[3];
+    for (int a = 0; a < 3; ++a) {
+        const int b = a == 2 ? 0 : a + 1, c = b == 2 ? 0 : b + 1; // the lanes rotated: (y, z, x) and (z, x, y)
+        n[a] = _mm256_sub_pd(_mm256_mul_pd(e1[b], e2[c]), _mm256_mul_pd(e1[c], e2[b]));
+    }
+    const __m256d den = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(d[0], n[0]), _mm256_mul_pd(d[1], n[1])),
+                                      _mm256_mul_pd(d[2], n[2]));
+    const __m256d num = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(w[0], n[0]), _mm256_mul_pd(w[1], n[1])),
+                                      _mm256_mul_pd(w[2], n[2]));
+    const __m256d t = _mm256_div_pd(num, den);
+    _mm256_store_pd(plane, t);
+    // min_pd(a, b) is a < b ? a : b and max_pd(a, b) a > b ? a : b, as the
+    // scalar selections; the ordered compares are false for NaN.
+    const __m256d zero = _mm256_setzero_pd();
+    __m256d inside = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+    for (int a = 0; a < 3; ++a) {
+        const __m256d x = _mm256_sub_pd(_mm256_mul_pd(t, d[a]), w[a]);
+        const __m256d lo = _mm256_min_pd(_mm256_min_pd(e1[a], e2[a]), zero);
+        const __m256d hi = _mm256_max_pd(_mm256_max_pd(e1[a], e2[a]), zero);
+        inside = _mm256_and_pd(inside, _mm256_and_pd(_mm256_cmp_pd(x, lo, _CMP_GE_OQ), _mm256_cmp_pd(x, hi, _CMP_LE_OQ)));
+    }
+    return unsigned(_mm256_movemask_pd(inside));
+}
+
+[[gnu::always_inline]] inline void plane_distances(const TrianglePacket *p, unsigned lanes, const TriangleRay &r,
+                                                   PacketPlanes &out) {
+    out.inside = 0;
+    if ((lanes & 15u) != 0) out.inside = packet_plane_distances(p[0], r, out.plane);
+    if ((lanes >> 4) != 0) out.inside |= packet_plane_distances(p[1], r, out.plane + 4) << 4;
+}
 
 /// One layer of the sorting network: each lane meets lane i ^ partner and
 /// keeps the smaller key where bit i of kMinLanes is set, else the larger.

@@ -96,6 +96,11 @@ inline unsigned filter_packets(const TrianglePacket *p, uint32_t, const PacketRa
     return filter_packet(*p, r, edges);
 }
 
+/// The finish makes each lane's plane distance itself.
+constexpr bool kPlaneDistances = false;
+struct PacketPlanes;
+inline void plane_distances(const TrianglePacket *, unsigned, const TriangleRay &, PacketPlanes &) {}
+
 #include "trace/wide8_kernel.inl"
 
 int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]) { return sort_hits_insertion(mask, t_entry, key); }
