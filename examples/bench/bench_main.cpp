@@ -877,6 +877,9 @@ int main(int argc, char **argv) {
                     if (library && (!(v.mrays_mean > 0) || !(v.mrays_worst <= v.mrays_mean * (1 + 1e-9)) ||
                                     !(v.rel_time_worst >= v.rel_time_mean)))
                         check.fail(what + "no timing, or a slowest view faster than the mean");
+                    // The worst of the views with many rays is one of all the views.
+                    if (v.rel_time_worst_timed > v.rel_time_worst)
+                        check.fail(what + "the worst of the large views above the worst of all");
                     // Sweep SAH against itself: exactly 1 on every view.
                     if (r.builder == "sweep-sah" && (v.rel_cost_mean != 1.0 || v.rel_cost_worst != 1.0 ||
                                                      std::fabs(v.rel_time_mean - 1.0) > 1e-12))

@@ -26,6 +26,12 @@ struct BuildTiming {
     int runs = 0;
 };
 
+/// Views with fewer rays of a kind than this are left out of
+/// ViewFigures::rel_time_worst_timed: a batch of a few dozen shadow rays (a
+/// view whose primary rays mostly miss, or whose hits are mostly in shadow)
+/// times the call's overhead and the caches' state more than the tree.
+constexpr uint64_t kTimedViewRays = 1024;
+
 /// One ray kind over the in-scene views (issue 17): each view's figure,
 /// summarised over the views. "Worst" is the worst view for that figure alone.
 struct ViewFigures {
@@ -36,6 +42,9 @@ struct ViewFigures {
     double rel_cost_mean = kNaN, rel_cost_worst = kNaN;
     /// trace time / sweep SAH's on the same view: geometric mean over views, highest
     double rel_time_mean = kNaN, rel_time_worst = kNaN;
+    /// the highest trace time / sweep SAH's among the views with at least
+    /// kTimedViewRays rays of this kind (none: NaN)
+    double rel_time_worst_timed = kNaN;
 };
 
 /// One view and ray kind as measured, before it is summarised (not written out).

@@ -280,9 +280,47 @@ void test_one_view_mean_not_above_worst() {
     CHECK(f.rel_time_worst == x && f.rel_time_mean <= f.rel_time_worst);
 }
 
+// The worst view among those with at least kTimedViewRays rays: a view of
+// few rays counts for the worst of all views but not for this one, and the
+// figure survives the JSON. Sweep SAH: views of 1 s each; AAC-HQ: 1.5 s on
+// the large view, 5 s on the small one.
+void test_timed_worst_skips_small_views() {
+    SceneResult s = make_scene("timed", true);
+    s.views = 2;
+    for (Row &r : s.rows) {
+        const bool sweep = r.builder == "sweep-sah";
+        ViewSample large, small;
+        large.rays = kTimedViewRays;
+        small.rays = kTimedViewRays - 1;
+        large.steps = small.steps = 10;
+        large.tests = small.tests = 2;
+        large.seconds = sweep ? 1.0 : 1.5;
+        small.seconds = sweep ? 1.0 : 5.0;
+        r.view_samples[kPrimary] = {large, small};
+    }
+    s.summarise_views();
+    const Row *hq = s.find("aac-hq");
+    CHECK(hq != nullptr);
+    if (!hq) return;
+    const ViewFigures &f = hq->views[kPrimary];
+    CHECK(same(f.rel_time_worst, 5.0) && same(f.rel_time_worst_timed, 1.5));
+    CHECK(std::isnan(hq->views[kShadow].rel_time_worst_timed)); // no samples
+    std::string err;
+    RunInfo info = make_info();
+    CHECK(write_json("test_report_timed.json", {s}, info, err));
+    std::vector<SceneResult> back;
+    CHECK(read_json("test_report_timed.json", back, info, err) && back.size() == 1);
+    if (back.size() != 1) return;
+    const Row *bhq = back[0].find("aac-hq");
+    CHECK(bhq && same(bhq->views[kPrimary].rel_time_worst_timed, 1.5));
+    CHECK(write_markdown("test_report_timed.md", back, info, err));
+    CHECK(slurp("test_report_timed.md").find("5.00 (1.50)") != std::string::npos);
+}
+
 int main() {
     test_pareto_front();
     test_views();
+    test_timed_worst_skips_small_views();
     test_one_view_mean_not_above_worst();
     test_json_round_trip();
     test_svg();
