@@ -73,7 +73,7 @@ struct PacketLane {
 };
 
 /// A packet test's single-precision edge functions per lane (see
-/// intersect_triangle_edges_of() in trace/triangle_intersect.h), for up to two
+/// finish_triangle_edges() in trace/triangle_intersect.h), for up to two
 /// packets tested together (lanes 4-7: the second).
 struct alignas(32) PacketEdges {
     float eu[8], ev[8], ew[8], mag[8];

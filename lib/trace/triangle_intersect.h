@@ -113,6 +113,23 @@ template <class Vertices>
     return std::isfinite(t);
 }
 
+/// triangle_distance_of()'s first part, which a caller may make elsewhere by
+/// the same operations in the same order (for four triangles at once, say):
+/// the plane distance and whether the plane point lies in the triangle's box.
+struct PlaneDistance {
+    double plane;
+    bool inside;
+};
+
+/// triangle_distance_of()'s answer from its first part: the plane distance
+/// where the plane point lies in the triangle's box, else the clamped one.
+template <class Vertices>
+inline bool triangle_distance_from(const TriangleRay &r, const Vertices &tri, PlaneDistance d, double &t) {
+    t = d.plane;
+    if (d.inside) return true;
+    return clamp_to_triangle_box(r, tri, d.plane, t);
+}
+
 /// The distance along the ray to the triangle, for a ray the edge functions
 /// have found inside it: the plane distance (p0 - org) . n / (dir . n), n =
 /// (p1 - p0) x (p2 - p0), in double, kept within the stretch of the ray that
@@ -161,24 +178,7 @@ template <class Vertices> inline bool triangle_distance_of(const TriangleRay &r,
     const Double4 x = Double4{t, t, t, t} * r.dir_d - w;
     const Double4 lo = e1 < e2 ? e1 : e2, hi = e1 > e2 ? e1 : e2;
     const Long4 inside = (x >= (lo < zero ? lo : zero)) & (x <= (hi > zero ? hi : zero));
-    if (inside[0] & inside[1] & inside[2]) return true;
-    return clamp_to_triangle_box(r, tri, t, t);
-}
-
-/// triangle_distance_of()'s first part made elsewhere, by the same
-/// operations in the same order (for four triangles at once, say): the plane
-/// distance and whether the plane point lies in the triangle's box.
-struct PlaneDistance {
-    double plane;
-    bool inside;
-};
-
-/// triangle_distance_of() from a PlaneDistance: the same t.
-template <class Vertices>
-inline bool triangle_distance_from(const TriangleRay &r, const Vertices &tri, PlaneDistance d, double &t) {
-    t = d.plane;
-    if (d.inside) return true;
-    return clamp_to_triangle_box(r, tri, d.plane, t);
+    return triangle_distance_from(r, tri, PlaneDistance{t, (inside[0] & inside[1] & inside[2]) != 0}, t);
 }
 
 /// A distance th found in double (`found`: triangle_distance_of()'s answer)
@@ -332,12 +332,6 @@ inline bool finish_triangle_edges(const TriangleRay &r, const Vertices &tri, flo
     u = ev * inv_det;
     v = ew * inv_det;
     return true;
-}
-
-template <class Vertices>
-inline bool intersect_triangle_edges_of(const TriangleRay &r, const Vertices &tri, float eu, float ev, float ew,
-                                        float mag, float tmin, float tmax, float &t, float &u, float &v) {
-    return finish_triangle_edges<false>(r, tri, eu, ev, ew, mag, PlaneDistance{}, tmin, tmax, t, u, v);
 }
 
 } // namespace aacbvh

@@ -35,7 +35,7 @@ struct PacketRaySse {
 }
 
 /// Bit k set unless lane k's edge functions have certain, mixed signs (the
-/// scalar test's rejection): those lanes go on to intersect_triangle_edges_of()
+/// scalar test's rejection): those lanes go on to finish_triangle_edges()
 /// with the values stored in `edges`.
 [[gnu::always_inline]] inline unsigned filter_packet_sse(const TrianglePacket &p, const PacketRaySse &r,
                                                          PacketEdges &edges) {
