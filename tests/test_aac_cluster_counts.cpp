@@ -16,6 +16,7 @@ extern "C" {
 }
 
 #include <cmath>
+#include <vector>
 
 #include "build/aac/aac_builder.h"
 #include "builder_table.h"
@@ -108,6 +109,64 @@ void test_params_drop_the_own_counts(void **) {
     assert_int_equal(aac_cluster_target(p.aac, 20), 10);
 }
 
+/// The table a build fills (aac_cluster_targets(): runs found from the
+/// inverse of f) against f itself at every n, for the presets, the paper's
+/// f(n), extreme and random parameters, own counts from several sizes, and
+/// parameters under which f is not monotone (the plain fill).
+void check_table(const AacConfig &cfg, uint32_t count) {
+    std::vector<uint32_t> table(count + 1, 0xDEADBEEFu);
+    aacbvh::aac_cluster_targets(cfg, count, table.data());
+    for (uint32_t n = 0; n < count; ++n) {
+        if (table[n] != aac_cluster_target(cfg, n))
+            fail_msg("c %.17g alpha %.17g own_from %u own_c %.17g own_alpha %.17g: n %u, table %u, f(n) %u", cfg.c,
+                     cfg.alpha, cfg.own_from, cfg.own_c, cfg.own_alpha, n, table[n], aac_cluster_target(cfg, n));
+    }
+    assert_int_equal(table[count], 0xDEADBEEFu); // nothing written past count
+}
+
+void test_target_table(void **) {
+    const AacConfig hq = aacbvh::find_builder(AACBVH_BUILDER_AAC_HQ)->preset();
+    const AacConfig fast = aacbvh::find_builder(AACBVH_BUILDER_AAC_FAST)->preset();
+    AacConfig paper_hq = hq, paper_fast = fast;
+    paper_hq.own_from = paper_fast.own_from = 0;
+    for (const AacConfig &cfg : {hq, fast, paper_hq, paper_fast}) {
+        check_table(cfg, 4097);
+        check_table(cfg, 70000);
+        check_table(cfg, 3); // shorter than the clamped start
+    }
+    check_table(hq, 0);
+    const AacConfig fixed[] = {
+        {4, 1.0, 0.5, 0, 0.0, 0.4},     // the square root: exact values at squares
+        {4, 10.0, 1.0, 0, 0.0, 0.4},    // f(n) = n everywhere
+        {4, 1.0, 1.0, 0, 0.0, 0.4},     // f(n) = n, c n exactly
+        {4, 0.01, 0.1, 0, 0.0, 0.4},    // f(n) = 1 nearly everywhere
+        {4, 1000.0, 0.05, 0, 0.0, 0.4}, // clamped to n far up
+        {4, 1.0, 0.5, 1024, 2.0, 0.5},  // own counts: a jump at 1,024
+        {4, 3.0, 0.9, 100, 0.5, 0.2},   // own counts below the paper's: f falls at 100
+        {4, 2.0, 1e-9, 0, 0.0, 0.4},    // a tiny alpha: the inverse overflows
+        {4, 2.0, -0.5, 0, 0.0, 0.4},    // not monotone (no parameter sets this): the plain fill
+        {4, 2.0, 0.4, 10, 1.0, -0.3},
+    };
+    for (const AacConfig &cfg : fixed) check_table(cfg, 5000);
+    uint64_t state = 0x9E3779B97F4A7C15ull;
+    auto next = [&state] {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        return double(state >> 11) * 0x1p-53;
+    };
+    const uint32_t own_froms[] = {0, 1, 2, 17, 1024, 5000};
+    for (int k = 0; k < 60; ++k) {
+        AacConfig cfg;
+        cfg.c = 0.05 + 40.0 * next();
+        cfg.alpha = 0.02 + 0.98 * next();
+        cfg.own_from = own_froms[k % 6];
+        cfg.own_c = 0.05 + 40.0 * next();
+        cfg.own_alpha = 0.02 + 0.98 * next();
+        check_table(cfg, 4097);
+    }
+}
+
 } // namespace
 
 int main() {
@@ -116,6 +175,7 @@ int main() {
         cmocka_unit_test(test_own_counts),
         cmocka_unit_test(test_presets),
         cmocka_unit_test(test_params_drop_the_own_counts),
+        cmocka_unit_test(test_target_table),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }

@@ -37,6 +37,46 @@ uint32_t aac_cluster_target(const AacConfig &config, uint32_t n) {
 
 namespace {
 
+/// aac_cluster_targets() over [lo, hi), where one (c, alpha) with c > 0 and
+/// alpha > 0 applies: f is then non-decreasing (min(n, ceil(c n^alpha)),
+/// each rounding monotone), so each value holds on one run of n. The run's
+/// end is guessed from the inverse, n = (v / c)^(1 / alpha), and then moved
+/// by the exact f until f(end - 1) <= v < f(end): about four pow() calls a
+/// value instead of one an n (AAC-HQ's f takes 65 values up to 4,096).
+void fill_monotone_targets(const AacConfig &config, double c, double alpha, uint32_t lo, uint32_t hi,
+                           uint32_t *out) {
+    uint32_t i = lo;
+    while (i < hi) {
+        const uint32_t v = aac_cluster_target(config, i);
+        uint32_t end = i + 1;
+        if (v < i) { // not clamped to n: the run ends past the inverse
+            const double guess = std::floor(std::pow(double(v) / (c * (1.0 - 1e-12)), 1.0 / alpha)) + 1.0;
+            if (guess > double(end)) end = guess < double(hi) ? uint32_t(guess) : hi;
+            while (end > i + 1 && aac_cluster_target(config, end - 1) > v) --end;
+        }
+        while (end < hi && aac_cluster_target(config, end) <= v) ++end;
+        std::fill(out + i, out + end, v);
+        i = end;
+    }
+}
+
+} // namespace
+
+void aac_cluster_targets(const AacConfig &config, uint32_t count, uint32_t *out) {
+    const auto monotone = [](double c, double alpha) {
+        return std::isfinite(c) && std::isfinite(alpha) && c > 0.0 && alpha > 0.0;
+    };
+    const uint32_t own_from = config.own_from == 0 ? count : std::min(config.own_from, count);
+    if (!monotone(config.c, config.alpha) || (own_from < count && !monotone(config.own_c, config.own_alpha))) {
+        for (uint32_t n = 0; n < count; ++n) out[n] = aac_cluster_target(config, n); // no runs to rely on
+        return;
+    }
+    fill_monotone_targets(config, config.c, config.alpha, 0, own_from, out);
+    fill_monotone_targets(config, config.own_c, config.own_alpha, own_from, count, out);
+}
+
+namespace {
+
 /// Ranges at least this long are split into two parallel tasks.
 constexpr uint32_t kParallelGrain = 1u << 12;
 /// Ranges at least this long whose Morton codes are all equal get codes of
@@ -51,7 +91,7 @@ public:
           n_(tree.leaf_count()), clusters_(n_), free_ids_(n_), scratch_(MemoryMeter::current()) {
         // f(n) of the many small nodes comes from a table instead of pow().
         small_targets_.resize(std::min<uint32_t>(n_, kTargetTableSize) + 1);
-        for (uint32_t i = 0; i < small_targets_.size(); ++i) small_targets_[i] = aac_cluster_target(config_, i);
+        aac_cluster_targets(config_, uint32_t(small_targets_.size()), small_targets_.data());
     }
 
     void run() {

@@ -49,6 +49,12 @@ struct AacConfig {
 /// and n >= own_from; never below 1 nor above n.
 uint32_t aac_cluster_target(const AacConfig &config, uint32_t n);
 
+/// out[n] = aac_cluster_target(config, n) for n in [0, count), by a few
+/// pow() calls per distinct value instead of one per n (a build's table of
+/// up to 4,097 values cost a tenth of a 3.7 K-triangle build;
+/// docs/PERFORMANCE.md, row 197).
+void aac_cluster_targets(const AacConfig &config, uint32_t count, uint32_t *out);
+
 /// Also makes every node's flattening decision as it is created (into
 /// `choices`), and releases input.boxes once they are gathered into the tree
 /// (the tree takes the array over when the input has room for it,
