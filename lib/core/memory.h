@@ -8,7 +8,7 @@
 // of per 4 KiB), as Embree does for its build memory, and their pages are
 // mapped when the block is (one call instead of a fault for each).
 //
-// Arrays from 256 KiB to 2 MiB that a build makes on its calling thread come
+// Arrays from 16 KiB to 2 MiB that a build makes on its calling thread come
 // from huge-page slabs instead (core/scratch_arena.h), unless they are the
 // handle's; smaller arrays from `operator new`.
 //

@@ -32,10 +32,12 @@ namespace aacbvh {
 
 class ScratchArena {
 public:
-    /// Arrays of at least this size (and under 2 MiB) come from the slabs:
-    /// smaller scenes' arrays would leave most of a slab unused, and its
-    /// mapping cost more than their faults.
-    static constexpr size_t kScratchFrom = size_t(1) << 18;
+    /// Arrays of at least this size (and under 2 MiB) come from the slabs.
+    /// From 16 KiB, so that scenes of a few thousand triangles take theirs
+    /// from the reserve too: from `operator new` their builds took 0.30 or
+    /// 0.75 ms depending on the process's heap (docs/PERFORMANCE.md, row
+    /// 198). Smaller arrays would leave most of a slab's pages unused.
+    static constexpr size_t kScratchFrom = size_t(1) << 14;
     /// The alignment its arrays get (each starts at a 64-byte multiple within
     /// its first page); arrays of types aligned more come from elsewhere.
     static constexpr size_t kAlignment = 64;
