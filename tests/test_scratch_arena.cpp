@@ -25,6 +25,14 @@ extern "C" {
 #include "core/scratch_arena.h"
 #include "random_soup.h" // random_soup, set_soup
 
+#if defined(__SANITIZE_ADDRESS__)
+#include <sanitizer/asan_interface.h>
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#include <sanitizer/asan_interface.h>
+#endif
+#endif
+
 using aacbvh::ScratchArena;
 using aacbvh_test::random_soup;
 using aacbvh_test::set_soup;
@@ -122,6 +130,59 @@ void test_whole_slabs(void **) {
     }
     assert_int_equal(ScratchArena::live_slabs(), 0);
     assert_int_equal(aacbvh::testing::system_block_bytes.load(), held);
+}
+
+#if defined(__SANITIZE_ADDRESS__)
+#define TEST_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define TEST_ASAN 1
+#endif
+#endif
+
+/// Under AddressSanitizer a slab's bytes outside its live arrays are
+/// poisoned: the byte past an array's end, the slab's free stretches, and an
+/// array once freed; the array itself is not, and a slab goes back to the
+/// system (or the reserve) unpoisoned. (The suite's ASan stage runs this; in
+/// the other builds it checks only that the arrays are whole.)
+void test_poisoned_outside_arrays(void **) {
+    std::vector<Piece> pieces;
+    {
+        ScratchArena arena;
+        const ScratchArena::Scope scope(&arena);
+        const size_t sizes[] = {ScratchArena::kScratchFrom, ScratchArena::kScratchFrom + 5, 100 * kKiB + 3,
+                                700 * kKiB};
+        unsigned char tag = 1;
+        for (size_t bytes : sizes) {
+            Piece x{static_cast<unsigned char *>(aacbvh::allocate_build_memory(bytes)), bytes, tag++};
+            assert_true(ScratchArena::holds(x.p));
+            fill(x);
+            pieces.push_back(x);
+        }
+        for (const Piece &x : pieces) {
+            assert_true(intact(x));
+#if defined(TEST_ASAN)
+            assert_null(__asan_region_is_poisoned(x.p, x.bytes));
+            assert_true(__asan_address_is_poisoned(x.p + x.bytes));
+#endif
+        }
+        unsigned char *freed = pieces[1].p;
+        aacbvh::free_build_memory(freed, pieces[1].bytes);
+#if defined(TEST_ASAN)
+        assert_true(__asan_address_is_poisoned(freed));
+        assert_true(__asan_address_is_poisoned(freed + pieces[1].bytes - 1));
+#endif
+        for (size_t i = 0; i < pieces.size(); ++i)
+            if (i != 1) aacbvh::free_build_memory(pieces[i].p, pieces[i].bytes);
+    }
+    assert_int_equal(ScratchArena::live_slabs(), 0);
+#if defined(TEST_ASAN)
+    // The slab's memory went to the system (no reserve user here): a block
+    // mapped now may lie where it was, and must be usable.
+    void *block = aacbvh::allocate_build_memory(aacbvh::kHugePageBytes);
+    assert_null(__asan_region_is_poisoned(block, aacbvh::kHugePageBytes));
+    aacbvh::free_build_memory(block, aacbvh::kHugePageBytes);
+#endif
 }
 
 /// Freed pages serve the next arrays: the same sizes made and freed a
@@ -267,6 +328,7 @@ int main() {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_random_sizes),
         cmocka_unit_test(test_whole_slabs),
+        cmocka_unit_test(test_poisoned_outside_arrays),
         cmocka_unit_test(test_reuse),
         cmocka_unit_test(test_other_thread_and_orphan),
         cmocka_unit_test(test_builds_leave_no_slab),

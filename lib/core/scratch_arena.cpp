@@ -8,11 +8,44 @@
 #include "core/block_cache.h"
 #include "core/memory.h"
 
+#if defined(__SANITIZE_ADDRESS__)
+#define AACBVH_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define AACBVH_ASAN 1
+#endif
+#endif
+#if defined(AACBVH_ASAN)
+#include <sanitizer/asan_interface.h>
+#endif
+
 namespace aacbvh {
 
 namespace {
 
 constexpr size_t kSlabBytes = kHugePageBytes;
+
+/// Under AddressSanitizer, a live slab's bytes outside its arrays (free
+/// stretches, the colour gaps, each array's rounding to whole pages) are
+/// poisoned, so that an access past an array's end is reported as it would
+/// be for an array from `operator new`; a slab is unpoisoned whole before
+/// its memory goes anywhere else. Without it these do nothing.
+inline void poison(const void *p, size_t bytes) {
+#if defined(AACBVH_ASAN)
+    ASAN_POISON_MEMORY_REGION(p, bytes);
+#else
+    (void)p;
+    (void)bytes;
+#endif
+}
+inline void unpoison(const void *p, size_t bytes) {
+#if defined(AACBVH_ASAN)
+    ASAN_UNPOISON_MEMORY_REGION(p, bytes);
+#else
+    (void)p;
+    (void)bytes;
+#endif
+}
 /// A slab holds at most kSlabBytes / kScratchFrom arrays, so at most one
 /// more free stretch between them.
 constexpr size_t kMaxStretches = kSlabBytes / ScratchArena::kScratchFrom + 1;
@@ -134,7 +167,11 @@ void *ScratchArena::allocate(size_t bytes) {
                 best_i = i;
             }
         }
-        if (best) return static_cast<char *>(best->cut(best_i, want)) + color;
+        if (best) {
+            char *p = static_cast<char *>(best->cut(best_i, want)) + color;
+            unpoison(p, bytes);
+            return p;
+        }
         // A new slab: one kept from an earlier build, a block this build
         // freed, else the system's (the block cache is this thread's alone).
         if (r.reserved > 0) memory = r.reserve[--r.reserved];
@@ -151,6 +188,7 @@ void *ScratchArena::allocate(size_t bytes) {
         throw std::bad_alloc();
     }
     slab->base = static_cast<char *>(memory);
+    poison(memory, kSlabBytes);
     slab->owner = this;
     slab->stretch_count = 1;
     slab->offset[0] = 0;
@@ -162,7 +200,9 @@ void *ScratchArena::allocate(size_t bytes) {
     r.made.fetch_add(1, std::memory_order_relaxed);
     slab->next_owned = slabs_;
     slabs_ = slab;
-    return static_cast<char *>(slab->cut(0, want)) + color;
+    char *p = static_cast<char *>(slab->cut(0, want)) + color;
+    unpoison(p, bytes);
+    return p;
 }
 
 bool ScratchArena::release(void *p, size_t bytes) noexcept {
@@ -176,12 +216,14 @@ bool ScratchArena::release(void *p, size_t bytes) noexcept {
         if (!slab) return false;
         const size_t offset = size_t(static_cast<char *>(p) - slab->base), color = offset & (kPageBytes - 1);
         slab->give_back(offset - color, round_to_block(bytes + color));
+        poison(slab->base + (offset - color), round_to_block(bytes + color));
         if (slab->arrays == 0 && !slab->owner) {
             unlink(r, slab);
             orphan = slab;
         }
     }
     if (orphan) {
+        unpoison(orphan->base, kSlabBytes);
         free_system_block(orphan->base, kSlabBytes);
         delete orphan;
     }
@@ -197,6 +239,7 @@ ScratchArena::~ScratchArena() {
             Slab *next = s->next_owned;
             if (s->arrays == 0) {
                 unlink(r, s);
+                unpoison(s->base, kSlabBytes);
                 if (r.users > 0 && r.reserved < kReserveSlabs) {
                     r.reserve[r.reserved++] = s->base;
                     delete s;
