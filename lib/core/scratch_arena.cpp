@@ -46,6 +46,7 @@ inline void unpoison(const void *p, size_t bytes) {
     (void)bytes;
 #endif
 }
+
 /// A slab holds at most kSlabBytes / kScratchFrom arrays, so at most one
 /// more free stretch between them.
 constexpr size_t kMaxStretches = kSlabBytes / ScratchArena::kScratchFrom + 1;
