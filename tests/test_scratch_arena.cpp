@@ -24,13 +24,10 @@ extern "C" {
 #include "core/scheduler.h"
 #include "core/scratch_arena.h"
 #include "random_soup.h" // random_soup, set_soup
+#include "test_support.h" // TS_UNDER_ASAN
 
-#if defined(__SANITIZE_ADDRESS__)
+#if TS_UNDER_ASAN
 #include <sanitizer/asan_interface.h>
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#include <sanitizer/asan_interface.h>
-#endif
 #endif
 
 using aacbvh::ScratchArena;
@@ -132,14 +129,6 @@ void test_whole_slabs(void **) {
     assert_int_equal(aacbvh::testing::system_block_bytes.load(), held);
 }
 
-#if defined(__SANITIZE_ADDRESS__)
-#define TEST_ASAN 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define TEST_ASAN 1
-#endif
-#endif
-
 /// Under AddressSanitizer a slab's bytes outside its live arrays are
 /// poisoned: the byte past an array's end, the slab's free stretches, and an
 /// array once freed; the array itself is not, and a slab goes back to the
@@ -161,14 +150,14 @@ void test_poisoned_outside_arrays(void **) {
         }
         for (const Piece &x : pieces) {
             assert_true(intact(x));
-#if defined(TEST_ASAN)
+#if TS_UNDER_ASAN
             assert_null(__asan_region_is_poisoned(x.p, x.bytes));
             assert_true(__asan_address_is_poisoned(x.p + x.bytes));
 #endif
         }
         unsigned char *freed = pieces[1].p;
         aacbvh::free_build_memory(freed, pieces[1].bytes);
-#if defined(TEST_ASAN)
+#if TS_UNDER_ASAN
         assert_true(__asan_address_is_poisoned(freed));
         assert_true(__asan_address_is_poisoned(freed + pieces[1].bytes - 1));
 #endif
@@ -176,7 +165,7 @@ void test_poisoned_outside_arrays(void **) {
             if (i != 1) aacbvh::free_build_memory(pieces[i].p, pieces[i].bytes);
     }
     assert_int_equal(ScratchArena::live_slabs(), 0);
-#if defined(TEST_ASAN)
+#if TS_UNDER_ASAN
     // The slab's memory went to the system (no reserve user here): a block
     // mapped now may lie where it was, and must be usable.
     void *block = aacbvh::allocate_build_memory(aacbvh::kHugePageBytes);
