@@ -32,7 +32,16 @@ double paper_fast_c() { return std::pow(4.0, 0.7) / 2.0; }
 /// (docs/PERFORMANCE.md, change 121).
 constexpr double kHqOwnC = 2.3;
 
-AacConfig hq_preset() { return AacConfig{20, paper_hq_c(), 0.4, 1, kHqOwnC, 0.4, kRootSplitLevels}; }
+/// Both presets build their top again by a full sweep over the sub-trees of
+/// at most this many primitives and keep it where it is cheaper
+/// (build/aac/top_rebuild.h; issues 14 and 17): on the scans and the
+/// procedural scene SAH fell 4-6 % and ray cost 6-16 % (the dragon's SAH
+/// 64.7 -> 60.9), the interiors kept AAC's own tops. 128 gained about three
+/// quarters of that for half the work; 16 and 32 gained more for twice and
+/// four times (docs/PERFORMANCE.md, row 203).
+constexpr uint32_t kTopRebuildPrims = 64;
+
+AacConfig hq_preset() { return AacConfig{20, paper_hq_c(), 0.4, 1, kHqOwnC, 0.4, kRootSplitLevels, kTopRebuildPrims}; }
 
 /// Fast keeps the paper's f(n) below 1,024 primitives and takes HQ's counts
 /// above (issue 17). Its small f(n) starved the top: on stk_temple the final
@@ -41,7 +50,7 @@ AacConfig hq_preset() { return AacConfig{20, paper_hq_c(), 0.4, 1, kHqOwnC, 0.4,
 /// inside the level tested up to 140 boxes per ray (HQ: 57). Ranges of 1,024
 /// and more are about 1 in 256 of Fast's combine steps, so the build costs
 /// about the same (docs/PERFORMANCE.md, change 47).
-AacConfig fast_preset() { return AacConfig{4, paper_fast_c(), 0.3, kFastTopFrom, kHqOwnC, 0.4, kRootSplitLevels}; }
+AacConfig fast_preset() { return AacConfig{4, paper_fast_c(), 0.3, kFastTopFrom, kHqOwnC, 0.4, kRootSplitLevels, kTopRebuildPrims}; }
 
 bool run_aac(BuildInput &input, const Params &params, const FlattenRule &rule, BuildContext &ctx, BinaryTree &tree,
              SubtreeChoices &choices) {
@@ -74,9 +83,9 @@ bool run_ploc(BuildInput &input, const Params &params, const FlattenRule &, Buil
 }
 
 constexpr BuilderInfo kBuilders[] = {
-    {AACBVH_BUILDER_AAC_HQ, "aac-hq", "AAC, the paper's high-quality preset (delta 20, alpha 0.4) with f(n) = ceil(2.3 n^0.4), root split by SAH: the default",
+    {AACBVH_BUILDER_AAC_HQ, "aac-hq", "AAC, the paper's high-quality preset (delta 20, alpha 0.4) with f(n) = ceil(2.3 n^0.4), root split by SAH, top over sub-trees of 64 primitives rebuilt by full sweep where cheaper: the default",
      hq_preset, run_aac, InputRoom::Tree},
-    {AACBVH_BUILDER_AAC_FAST, "aac-fast", "AAC, the paper's fast preset (delta 4, alpha 0.3), HQ's cluster counts from 1,024 primitives up, root split by SAH", fast_preset, run_aac, InputRoom::Tree},
+    {AACBVH_BUILDER_AAC_FAST, "aac-fast", "AAC, the paper's fast preset (delta 4, alpha 0.3), HQ's cluster counts from 1,024 primitives up, root split by SAH, top rebuilt as HQ's", fast_preset, run_aac, InputRoom::Tree},
     {AACBVH_BUILDER_AAC, "aac", "AAC with your own delta, c and alpha", nullptr, run_aac, InputRoom::Tree},
     {AACBVH_BUILDER_SWEEP_SAH, "sweep-sah", "top-down full-sweep SAH, the quality reference", nullptr, run_sweep},
     {AACBVH_BUILDER_BINNED_SAH, "binned-sah", "top-down binned SAH, 16 bins", nullptr, run_binned},

@@ -71,8 +71,7 @@ void Params::set_int(int32_t key, int64_t value) {
         builder = info->value;
         if (info->preset) aac = info->preset();
         if (builder == AACBVH_BUILDER_AAC) { // the paper's AAC with the values in force
-            aac.own_from = 0;
-            aac.root_split_levels = 0;
+            aac.use_paper_rules();
         }
         break;
     }
@@ -80,8 +79,7 @@ void Params::set_int(int32_t key, int64_t value) {
         if (value < 2 || value > (1 << 20)) reject("AAC delta must be in [2, 2^20], got " + std::to_string(value));
         aac.delta = uint32_t(value);
         builder = AACBVH_BUILDER_AAC;
-        aac.own_from = 0;
-        aac.root_split_levels = 0;
+        aac.use_paper_rules();
         break;
     case AACBVH_PARAM_MAX_LEAF_SIZE:
         if (value < 1 || value > (1 << 16)) reject("max leaf size must be in [1, 65536], got " + std::to_string(value));
@@ -131,15 +129,13 @@ void Params::set_float(int32_t key, double value) {
         if (!(value > 0.0)) reject("AAC c must be > 0, got " + std::to_string(value));
         aac.c = value;
         builder = AACBVH_BUILDER_AAC;
-        aac.own_from = 0;
-        aac.root_split_levels = 0;
+        aac.use_paper_rules();
         break;
     case AACBVH_PARAM_AAC_ALPHA:
         if (!(value > 0.0 && value <= 1.0)) reject("AAC alpha must be in (0, 1], got " + std::to_string(value));
         aac.alpha = value;
         builder = AACBVH_BUILDER_AAC;
-        aac.own_from = 0;
-        aac.root_split_levels = 0;
+        aac.use_paper_rules();
         break;
     case AACBVH_PARAM_TRAVERSAL_COST:
         if (!(value > 0.0 && value <= kMaxCost))

@@ -18,6 +18,7 @@
 
 #include "build/aac/aac_builder.h"
 #include "build/aac/cluster_combine.h"
+#include "build/aac/top_rebuild.h"
 #include "build/aac/top_split.h"
 #include "build/morton.h"
 #include "build/radix_split.h"
@@ -271,6 +272,14 @@ void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &ru
     }
     choices.resize(n, rule.packets);
     AacRecursion(config, rule, ctx, out, choices, prefix.data(), distance_scale(input.bounds)).run();
+    // The top rebuilt over the sub-trees of at most top_rebuild_prims
+    // primitives, tried first over sub-trees four times that size (about a
+    // quarter of the work): where that coarse top does not beat AAC's, the
+    // finer one did not either on any scene measured (the interiors), which
+    // then pay only the quarter (docs/PERFORMANCE.md, row 203).
+    const uint32_t cut = config.top_rebuild_prims;
+    if (cut != 0 && rebuild_top(out, choices.table(), rule, cut > UINT32_MAX / 4 ? cut : 4 * cut, ctx))
+        rebuild_top(out, choices.table(), rule, cut, ctx);
 }
 
 } // namespace aacbvh

@@ -43,6 +43,20 @@ struct AacConfig {
     /// many levels (build/aac/top_split.h) and merges each part greedily; 0:
     /// the paper's greedy merge down to one cluster. Ours (issue 17).
     uint32_t root_split_levels = 0;
+    /// After the clustering, the top above the maximal sub-trees of at most
+    /// this many primitives is built again by a full-sweep SAH over them and
+    /// kept where its flattened cost is lower (build/aac/top_rebuild.h); 0:
+    /// the paper's tree as clustered. Ours (issues 14 and 17).
+    uint32_t top_rebuild_prims = 0;
+
+    /// The paper's AAC with the delta, c and alpha in force: none of the
+    /// presets' own rules (AACBVH_BUILDER_AAC, or a preset whose AAC value the
+    /// user set).
+    void use_paper_rules() {
+        own_from = 0;
+        root_split_levels = 0;
+        top_rebuild_prims = 0;
+    }
 };
 
 /// f(n) = ceil(c * n^alpha), or ceil(own_c * n^own_alpha) when own_from != 0

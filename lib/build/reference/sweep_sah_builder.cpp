@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <vector>
 
 #include "build/reference/reference_builders.h"
@@ -14,14 +13,6 @@ namespace aacbvh {
 namespace {
 
 using top_down::RangeTask;
-
-/// Maps a float to an unsigned key with the same order (for sorting).
-inline uint32_t float_order_key(float f) {
-    uint32_t u;
-    std::memcpy(&u, &f, sizeof u);
-    return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
-}
-
 
 /// Keeps the primitives (index and box) sorted by centroid on each axis,
 /// sorted once; sweeps all three lists at every node and partitions them
@@ -58,7 +49,7 @@ private:
         // ties keep input order and the sort is deterministic.
         Array<uint64_t> keys(n_);
         for (uint32_t i = 0; i < n_; ++i)
-            keys[i] = uint64_t(float_order_key(input_.boxes[i].centroid(axis))) << 32 | i;
+            keys[i] = uint64_t(top_down::float_order_key(input_.boxes[i].centroid(axis))) << 32 | i;
         std::sort(keys.begin(), keys.end());
         for (uint32_t i = 0; i < n_; ++i) {
             const uint32_t p = uint32_t(keys[i]);

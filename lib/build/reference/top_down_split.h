@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <vector>
 
 #include "build/binary_tree.h"
@@ -80,6 +81,13 @@ inline void emit_inner(BinaryTree &out, uint32_t n, const RangeTask &task, uint3
     right.begin = mid;
     right.end = task.end;
     right.id_slot = children + 1;
+}
+
+/// Maps a float to an unsigned key with the same order (for sorting).
+inline uint32_t float_order_key(float f) {
+    uint32_t u;
+    std::memcpy(&u, &f, sizeof u);
+    return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
 }
 
 /// Whether a split of [b, e) at `m` with cost `cost` beats the best so far:
