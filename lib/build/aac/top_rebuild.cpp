@@ -89,7 +89,9 @@ public:
             boxes_[i] = SweepBox::of(tree_.boxes[elements_[i]]);
             prims_[i] = prims_of(elements_[i]);
         }
-        for (int axis = 0; axis < 3; ++axis) sort_axis(axis);
+        Scheduler &scheduler = ctx_.scheduler();
+        scheduler.fork_join([&] { sort_axis(0); },
+                            [&] { scheduler.fork_join([&] { sort_axis(1); }, [&] { sort_axis(2); }); });
         const uint32_t root = split_all(count);
         choose(count, root);
         // The root's flattened cost, stored in single precision as the
@@ -112,8 +114,16 @@ private:
                 continue;
             }
             top_ids_.push_back(id);
-            stack.push_back(tree_.right(id));
-            stack.push_back(tree_.left(id));
+            const uint32_t l = tree_.left(id), r = tree_.right(id);
+            // Both children's counts and child entries are read soon, from
+            // ids scattered over the tree: ask for them now.
+            for (const uint32_t c : {l, r})
+                if (!tree_.is_leaf(c)) {
+                    choices_.prefetch_counts(c - n_);
+                    __builtin_prefetch(&tree_.children[2 * size_t(c - n_)]);
+                }
+            stack.push_back(r);
+            stack.push_back(l);
         }
     }
 
