@@ -46,8 +46,8 @@ aacbvh::BuildInput make_input(const std::vector<Box> &boxes) {
     return in;
 }
 
-FlattenRule rule_for(const aacbvh::BuildInput &in) {
-    FlattenRule rule{4, 1.2, 1.0};
+FlattenRule rule_for(const aacbvh::BuildInput &in, uint32_t max_leaf_size = 4) {
+    FlattenRule rule{max_leaf_size, 1.2, 1.0};
     rule.extent_scale = aacbvh::extent_scale_of(in.bounds);
     return rule;
 }
@@ -166,8 +166,8 @@ void walk(const BinaryTree &t, uint32_t root, std::vector<uint32_t> &ids, std::v
 /// root's cost is the reference's where that is lower, else the tree is
 /// untouched; the sub-trees below the cut are untouched; the choices agree
 /// with a recount from scratch. Returns whether the top was replaced.
-bool check_rebuild(const std::vector<Box> &boxes, uint32_t cut) {
-    const FlattenRule rule = rule_for(make_input(boxes));
+bool check_rebuild(const std::vector<Box> &boxes, uint32_t cut, uint32_t max_leaf_size = 4) {
+    const FlattenRule rule = rule_for(make_input(boxes), max_leaf_size);
     BinaryTree tree;
     SubtreeChoices choices;
     build_clustered(boxes, rule, tree, choices);
@@ -282,6 +282,9 @@ void test_random_soups(void **) {
     }
     for (uint64_t seed = 1; seed <= 4; ++seed)
         for (uint32_t cut : {16u, 64u}) replaced += check_rebuild(sphere_soup(4000, seed), cut);
+    // Leaves larger than the cut: new top nodes may become leaves themselves.
+    for (uint32_t max_leaf : {16u, 64u, 1000u})
+        for (uint32_t cut : {8u, 64u}) replaced += check_rebuild(sphere_soup(3000, 9), cut, max_leaf);
     // The scan stand-ins are what the rebuild is for: it must take some.
     assert_true(replaced > 0);
 }
