@@ -89,9 +89,15 @@ public:
             boxes_[i] = SweepBox::of(tree_.boxes[elements_[i]]);
             prims_[i] = prims_of(elements_[i]);
         }
+        Array<uint64_t> keys[3];
+        for (int axis = 0; axis < 3; ++axis) {
+            keys[axis].resize(count);
+            order_[axis].resize(count);
+        }
         Scheduler &scheduler = ctx_.scheduler();
-        scheduler.fork_join([&] { sort_axis(0); },
-                            [&] { scheduler.fork_join([&] { sort_axis(1); }, [&] { sort_axis(2); }); });
+        scheduler.fork_join([&] { sort_axis(0, keys[0]); }, [&] {
+            scheduler.fork_join([&] { sort_axis(1, keys[1]); }, [&] { sort_axis(2, keys[2]); });
+        });
         const uint32_t root = split_all(count);
         choose(count, root);
         // The root's flattened cost, stored in single precision as the
@@ -133,22 +139,22 @@ private:
     }
 
     /// order_[axis]: element indices by centroid on `axis`, ties by index
-    /// (the elements' left-to-right order), and their boxes beside them.
-    void sort_axis(int axis) {
+    /// (the elements' left-to-right order). `keys` and order_[axis] are
+    /// allocated by the calling thread (MemoryMeter counts them), sized
+    /// to the element count.
+    void sort_axis(int axis, Array<uint64_t> &keys) {
         const uint32_t count = uint32_t(elements_.size());
-        Array<uint64_t> keys(count);
-        Array<uint32_t> order(count);
+        Array<uint32_t> &order = order_[axis];
         for (uint32_t i = 0; i < count; ++i) {
             keys[i] = top_down::float_order_key(tree_.boxes[elements_[i]].centroid(axis));
             order[i] = i;
         }
         radix_sort_pairs(keys, order, 32, ctx_.scheduler()); // stable: ties in index order
-        order_[axis].swap(order);
     }
 
     struct Range {
         uint32_t begin, end;
-        uint32_t *slot; ///< the parent's child entry, or root_slot
+        uint32_t *slot; ///< the parent's child entry, or the root's
     };
 
     /// Splits every range of two or more elements; returns the root's local index.
