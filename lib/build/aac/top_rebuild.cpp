@@ -94,10 +94,16 @@ public:
             keys[axis].resize(count);
             order_[axis].resize(count);
         }
+        // The three sorts as parallel tasks where they are big enough to pay
+        // for a task (the top-down builders' kForkMin).
         Scheduler &scheduler = ctx_.scheduler();
-        scheduler.fork_join([&] { sort_axis(0, keys[0]); }, [&] {
-            scheduler.fork_join([&] { sort_axis(1, keys[1]); }, [&] { sort_axis(2, keys[2]); });
-        });
+        if (count >= top_down::kForkMin) {
+            scheduler.fork_join([&] { sort_axis(0, keys[0]); }, [&] {
+                scheduler.fork_join([&] { sort_axis(1, keys[1]); }, [&] { sort_axis(2, keys[2]); });
+            });
+        } else {
+            for (int axis = 0; axis < 3; ++axis) sort_axis(axis, keys[axis]);
+        }
         const uint32_t root = split_all(count);
         choose(count, root);
         // The root's flattened cost, stored in single precision as the
