@@ -22,24 +22,13 @@ extern "C" {
 
 #include "build/morton.h"
 #include "build/radix_sort.h"
+#include "box_input.h"
 
 namespace {
 
 using aacbvh::Box;
 
-aacbvh::BuildInput make_input(const std::vector<Box> &boxes) {
-    aacbvh::BuildInput in;
-    in.boxes.resize(boxes.size());
-    in.prim_ids.resize(boxes.size());
-    for (size_t i = 0; i < boxes.size(); ++i) {
-        in.boxes[i] = boxes[i];
-        in.prim_ids[i] = uint32_t(i);
-        in.bounds.extend(boxes[i]);
-        const float c[3] = {boxes[i].centroid(0), boxes[i].centroid(1), boxes[i].centroid(2)};
-        in.centroid_bounds.extend(Box{{c[0], c[1], c[2]}, {c[0], c[1], c[2]}});
-    }
-    return in;
-}
+aacbvh::BuildInput make_input(const std::vector<Box> &boxes) { return aacbvh_test::box_input(boxes); }
 
 /// Fails unless sort_by_morton_code gives the stable sort of the codes.
 void check_sorted(const std::vector<Box> &boxes, unsigned threads) {

@@ -22,6 +22,7 @@ extern "C" {
 
 #include "build/aac/aac_builder.h"
 #include "build/reference/reference_builders.h"
+#include "box_input.h"
 #include "test_support.h" // TS_UNDER_SANITIZER
 
 using namespace aacbvh;
@@ -47,18 +48,7 @@ const NamedBuilder kBuilders[] = {
 /// builder that forgets to map prim_ids is caught.
 uint32_t prim_id_of(uint32_t i) { return 3 * i + 7; }
 
-BuildInput make_input(const std::vector<Box> &boxes) {
-    BuildInput in;
-    in.boxes.assign(boxes.begin(), boxes.end());
-    in.prim_ids.resize(boxes.size());
-    for (uint32_t i = 0; i < boxes.size(); ++i) {
-        in.prim_ids[i] = prim_id_of(i);
-        in.bounds.extend(boxes[i]);
-        const float c[3] = {boxes[i].centroid(0), boxes[i].centroid(1), boxes[i].centroid(2)};
-        in.centroid_bounds.extend(c);
-    }
-    return in;
-}
+BuildInput make_input(const std::vector<Box> &boxes) { return aacbvh_test::box_input(boxes, prim_id_of); }
 
 std::vector<Box> random_boxes(uint32_t n, uint32_t seed, float max_size = 0.1f) {
     std::mt19937 rng(seed);

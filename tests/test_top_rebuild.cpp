@@ -23,6 +23,7 @@ extern "C" {
 #include "build/reference/reference_builders.h"
 #include "core/scheduler.h"
 #include "xorshift_rng.h"
+#include "box_input.h"
 
 namespace {
 
@@ -32,19 +33,7 @@ using aacbvh::FlattenRule;
 using aacbvh::SubtreeChoice;
 using aacbvh::SubtreeChoices;
 
-aacbvh::BuildInput make_input(const std::vector<Box> &boxes) {
-    aacbvh::BuildInput in;
-    in.boxes.resize(boxes.size());
-    in.prim_ids.resize(boxes.size());
-    for (size_t i = 0; i < boxes.size(); ++i) {
-        in.boxes[i] = boxes[i];
-        in.prim_ids[i] = uint32_t(i);
-        in.bounds.extend(boxes[i]);
-        const float c[3] = {boxes[i].centroid(0), boxes[i].centroid(1), boxes[i].centroid(2)};
-        in.centroid_bounds.extend(Box{{c[0], c[1], c[2]}, {c[0], c[1], c[2]}});
-    }
-    return in;
-}
+aacbvh::BuildInput make_input(const std::vector<Box> &boxes) { return aacbvh_test::box_input(boxes); }
 
 FlattenRule rule_for(const aacbvh::BuildInput &in, uint32_t max_leaf_size = 4) {
     FlattenRule rule{max_leaf_size, 1.2, 1.0};
