@@ -9,6 +9,9 @@
 //    handed up (contiguous in `clusters`, as the paper's "reduce data
 //    movement" asks) down to f(n) = ceil(c n^alpha); the root down to one
 //    (the presets first split the root's clusters by SAH: top_split.h).
+// 4. The presets only: the top above the finished tree's sub-trees of at most
+//    64 primitives built again by a full-sweep SAH, and kept where it is
+//    cheaper (top_rebuild.h; ours).
 //
 // Node ids are deterministic whatever the thread count: the range [b, e) owns
 // the inner ids n + b .. n + e - 1 and uses fewer than e - b of them; the ids a
@@ -275,10 +278,15 @@ void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &ru
     // The top rebuilt over the sub-trees of at most top_rebuild_prims
     // primitives, tried first over sub-trees four times that size (about a
     // quarter of the work): where that coarse top does not beat AAC's, the
-    // finer one did not either on any scene measured (the interiors), which
-    // then pay only the quarter (docs/PERFORMANCE.md, row 203).
+    // finer one did not either on any scene measured of more than
+    // kTryCoarseFrom primitives (the interiors), which then pay only the
+    // quarter (docs/PERFORMANCE.md, row 203). Smaller scenes, whose whole
+    // step is a few dozen microseconds, go straight to the fine cut: the
+    // coarse one threw away bunny_npm_lowres's gain.
+    constexpr uint32_t kTryCoarseFrom = 1u << 14;
     const uint32_t cut = config.top_rebuild_prims;
-    if (cut != 0 && rebuild_top(out, choices.table(), rule, cut > UINT32_MAX / 4 ? cut : 4 * cut, ctx))
+    if (cut != 0 && (n < kTryCoarseFrom ||
+                     rebuild_top(out, choices.table(), rule, cut > UINT32_MAX / 4 ? cut : 4 * cut, ctx)))
         rebuild_top(out, choices.table(), rule, cut, ctx);
 }
 
