@@ -15,7 +15,6 @@ extern "C" {
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <vector>
 
 #include "build/aac/aac_builder.h"
