@@ -137,7 +137,12 @@ uint64_t seed_for(const void *p) {
 } // namespace
 
 struct Scheduler::Pool {
-    explicit Pool(unsigned workers) : worker_count(workers), workers(new Slot[workers]) {}
+    /// One external slot is made up front, so that the application thread
+    /// that forks first (most contexts serve one) allocates nothing there: a
+    /// fork_join allocates only when more application threads fork into the
+    /// pool at once than ever before, and the slots it adds live as long as
+    /// the pool.
+    explicit Pool(unsigned workers) : worker_count(workers), workers(new Slot[workers]), externals(new Slot) {}
     ~Pool() {
         for (Slot *s = externals.load(std::memory_order_acquire); s;) {
             Slot *next = s->next;

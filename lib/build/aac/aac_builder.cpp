@@ -81,8 +81,19 @@ void aac_cluster_targets(const AacConfig &config, uint32_t count, uint32_t *out)
 
 namespace {
 
-/// Ranges at least this long are split into two parallel tasks.
+/// Ranges at least this long are split into two parallel tasks...
 constexpr uint32_t kParallelGrain = 1u << 12;
+/// ...and in scenes of fewer than 4 kParallelGrain primitives, ranges of a
+/// quarter of the scene, down to this: otherwise a scene of under 4,096
+/// primitives never forks, and a two-thread build of bunny_npm_lowres (3,674
+/// triangles) took the one-thread time, 0.62 ms against 0.44 with the
+/// forks (docs/PERFORMANCE.md, row 205). The tree is the same either way.
+constexpr uint32_t kSmallSceneGrain = 1u << 10;
+
+/// The fork threshold of AAC's recursion over a scene of n primitives.
+constexpr uint32_t parallel_grain(uint32_t n) {
+    return std::min(kParallelGrain, std::max(kSmallSceneGrain, n / 4));
+}
 /// Ranges at least this long whose Morton codes are all equal get codes of
 /// their own (AacRecursion::refine_codes()); shorter ones split in the middle.
 constexpr uint32_t kRefineFrom = 64;
@@ -92,7 +103,7 @@ public:
     AacRecursion(const AacConfig &config, const FlattenRule &rule, BuildContext &ctx, BinaryTree &tree,
                  SubtreeChoices &choices, uint8_t *prefix, float scale)
         : config_(config), rule_(rule), ctx_(ctx), tree_(tree), choices_(choices.table()), prefix_(prefix), scale_(scale),
-          n_(tree.leaf_count()), clusters_(n_), free_ids_(n_), scratch_(MemoryMeter::current()) {
+          n_(tree.leaf_count()), grain_(parallel_grain(n_)), clusters_(n_), free_ids_(n_), scratch_(MemoryMeter::current()) {
         // f(n) of the many small nodes comes from a table instead of pow().
         small_targets_.resize(std::min<uint32_t>(n_, kTargetTableSize) + 1);
         aac_cluster_targets(config_, uint32_t(small_targets_.size()), small_targets_.data());
@@ -124,7 +135,7 @@ private:
         if (split.equal && n >= kRefineFrom && refine_codes(b, e, scale)) split = radix_split(prefix_, b, e);
         const uint32_t m = split.at;
         uint32_t left = 0, right = 0;
-        if (n >= kParallelGrain) {
+        if (n >= grain_) {
             ctx_.scheduler().fork_join([&] { left = build(b, m, scale); }, [&] { right = build(m, e, scale); });
             ctx_.check_cancelled();
         } else {
@@ -231,6 +242,7 @@ private:
     uint8_t *prefix_; ///< common prefix lengths of neighbouring codes; refine_codes() rewrites a range's
     float scale_;
     uint32_t n_;
+    uint32_t grain_; ///< parallel_grain(n_)
     Array<uint32_t> clusters_;
     Array<uint32_t> free_ids_;
     std::vector<uint32_t> small_targets_;
