@@ -137,11 +137,12 @@ uint64_t seed_for(const void *p) {
 } // namespace
 
 struct Scheduler::Pool {
-    /// One external slot is made up front, so that the application thread
-    /// that forks first (most contexts serve one) allocates nothing there: a
+    /// One external slot is made up front, so that the first application
+    /// thread to fork (most contexts serve one) finds its deque made: a
     /// fork_join allocates only when more application threads fork into the
-    /// pool at once than ever before, and the slots it adds live as long as
-    /// the pool.
+    /// pool at once than ever before (slots that then live as long as the
+    /// pool) or when more than 64 forks are pending on one deque (its ring
+    /// grows).
     explicit Pool(unsigned workers) : worker_count(workers), workers(new Slot[workers]), externals(new Slot) {}
     ~Pool() {
         for (Slot *s = externals.load(std::memory_order_acquire); s;) {

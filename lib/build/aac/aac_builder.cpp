@@ -86,8 +86,8 @@ constexpr uint32_t kParallelGrain = 1u << 12;
 /// ...and in scenes of fewer than 4 kParallelGrain primitives, ranges of a
 /// quarter of the scene, down to this: otherwise a scene of under 4,096
 /// primitives never forks, and a two-thread build of bunny_npm_lowres (3,674
-/// triangles) took the one-thread time, 0.62 ms against 0.44 with the
-/// forks (docs/PERFORMANCE.md, row 205). The tree is the same either way.
+/// triangles) took the one-thread time, 0.60 ms against 0.45-0.48 with
+/// the forks (docs/PERFORMANCE.md, row 205). The tree is the same either way.
 constexpr uint32_t kSmallSceneGrain = 1u << 10;
 
 /// The fork threshold of AAC's recursion over a scene of n primitives.
