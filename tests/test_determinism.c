@@ -13,7 +13,9 @@
  * triangle copy and refit on the bunny (69K triangles; a generated 100K grid
  * without it), and the radix sort, whose chunks hold at least 64K keys, in
  * AAC-Fast's build of a generated scene of more than 2 * 64K triangles.
- * Locally-ordered, the slowest builder, runs on a generated 40K grid.
+ * Locally-ordered, the slowest builder, runs on a generated 40K grid. AAC
+ * also runs on scenes of 3K and 12K triangles, whose recursion forks smaller
+ * ranges than big scenes'.
  * Under the sanitizers the bunny's tests run on that 40K grid too: every
  * phase but the radix sort still splits there (their grains are at most
  * 32K triangles), and the radix sort splits on the 140K scene.
@@ -267,6 +269,24 @@ static void test_layout_and_storage_variants_deterministic(void **state) {
     ts_mesh_free(&mesh);
 }
 
+static void test_small_scenes_deterministic(void **state) {
+    (void)state;
+    /* Under 16K triangles the AAC recursion forks ranges of a quarter of the
+     * scene (down to 1,024) instead of 4,096 and more: scenes of 3,000 and
+     * 12,000 triangles fork at two levels or more. */
+    static const size_t kSizes[] = {3000, 12000};
+    for (size_t i = 0; i < sizeof kSizes / sizeof kSizes[0]; ++i) {
+        ts_mesh mesh = {0};
+        assert_true(ts_make_scene(TS_SCENE_GRID, kSizes[i], 9 + (unsigned)i, &mesh));
+        assert_true(mesh.triangle_count < 16384);
+        aacbvh_ray *rays = make_rays(&mesh, 17 + (unsigned)i);
+        check_builder("AAC-HQ, small scene", AACBVH_BUILDER_AAC_HQ, &mesh, rays, kRayCount);
+        check_builder("AAC-Fast, small scene", AACBVH_BUILDER_AAC_FAST, &mesh, rays, kRayCount);
+        free(rays);
+        ts_mesh_free(&mesh);
+    }
+}
+
 static void test_degenerate_scene_deterministic(void **state) {
     (void)state;
     /* Equal Morton codes everywhere: the middle splits must not depend on timing. */
@@ -285,6 +305,7 @@ int main(void) {
         cmocka_unit_test(test_reference_builders_deterministic),
         cmocka_unit_test(test_locally_ordered_deterministic),
         cmocka_unit_test(test_layout_and_storage_variants_deterministic),
+        cmocka_unit_test(test_small_scenes_deterministic),
         cmocka_unit_test(test_degenerate_scene_deterministic),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
