@@ -346,15 +346,7 @@ void BvhObject::refit() {
                     "refit needs the primitive count of the last build (" + std::to_string(built_primitive_count_) +
                         "), got " + std::to_string(geometry_.primitive_count) + ": build instead");
     // Check first so that a bad coordinate leaves the tree as it was.
-    const size_t bad = scheduler_.parallel_reduce(
-        size_t(0), bvh_.prim_ids.size(), size_t(1) << 14, SIZE_MAX,
-        [&](size_t b, size_t e) {
-            size_t first = SIZE_MAX;
-            for (size_t i = b; i < e; ++i)
-                if (primitive_problem(geometry_, bvh_.prim_ids[i])) first = std::min<size_t>(first, bvh_.prim_ids[i]);
-            return first;
-        },
-        [](size_t a, size_t b) { return std::min(a, b); });
+    const size_t bad = first_problem_in_tree();
     if (bad != SIZE_MAX)
         throw Error(AACBVH_ERROR_INVALID_GEOMETRY, std::string(geometry_.kind == GeometryKind::Boxes ? "box " : "triangle ") +
                                                        std::to_string(bad) + " " + primitive_problem(geometry_, bad));
@@ -406,6 +398,31 @@ void BvhObject::refit() {
     if (wide_.built()) wide_.refit(bvh_, scheduler_);
     if (wide8_.built()) wide8_.refit(bvh_, geometry_, scheduler_);
     valid_ = true;
+}
+
+size_t BvhObject::first_problem_in_tree() const {
+    // A tree holds each primitive at most once, so one of as many primitives
+    // as the geometry holds them all: they are checked in the caller's
+    // order, whose index and vertex reads run forward, instead of the
+    // leaves' (random reads: the check took longer than the refit itself,
+    // docs/PERFORMANCE.md row 209). A tree that left invalid primitives out
+    // checks its own.
+    const uint32_t *prims = bvh_.prim_ids.data();
+    const bool all = bvh_.prim_ids.size() == geometry_.primitive_count;
+    return scheduler_.parallel_reduce(
+        size_t(0), bvh_.prim_ids.size(), size_t(1) << 14, SIZE_MAX,
+        [&](size_t b, size_t e) {
+            size_t first = SIZE_MAX;
+            for (size_t i = b; i < e; ++i) {
+                const size_t p = all ? i : prims[i];
+                if (primitive_problem(geometry_, p)) {
+                    first = std::min(first, p);
+                    if (all) break; // the rest of the chunk comes later
+                }
+            }
+            return first;
+        },
+        [](size_t a, size_t b) { return std::min(a, b); });
 }
 
 void BvhObject::refit_compact() {

@@ -154,6 +154,9 @@ private:
     void expand();
     /// refit() of a compact() handle that keeps its layout.
     void refit_compact();
+    /// The smallest index of a primitive of the tree that primitive_problem()
+    /// refuses (refit's check), SIZE_MAX when there is none.
+    size_t first_problem_in_tree() const;
     /// The copy the traversals read, or NULL to read the caller's buffers.
     const float *triangle_copy() const { return triangles_.empty() ? nullptr : triangles_.data(); }
 

@@ -89,6 +89,14 @@ static void test_bad_vertices_named(void **state) {
     /* Refit checks first and names the triangle too; the tree stays valid. */
     v[9 * 23 + 8] = INFINITY;
     EXPECT_MESSAGE(bvh, aacbvh_bvh_refit(bvh), AACBVH_ERROR_INVALID_GEOMETRY, "triangle 23 ");
+    /* Of two bad ones, the first in the caller's order is named, wherever
+     * their leaves lie (refit checks in the caller's order, not the leaves'). */
+    v[9 * 11 + 0] = NAN;
+    EXPECT_MESSAGE(bvh, aacbvh_bvh_refit(bvh), AACBVH_ERROR_INVALID_GEOMETRY, "triangle 11 ");
+    v[9 * 11 + 0] = 0.25f;
+    EXPECT_MESSAGE(bvh, aacbvh_bvh_refit(bvh), AACBVH_ERROR_INVALID_GEOMETRY, "triangle 23 ");
+    v[9 * 23 + 8] = 0.5f;
+    TS_EXPECT_STATUS(aacbvh_bvh_refit(bvh), AACBVH_OK);
     {
         aacbvh_stats stats;
         stats.struct_size = sizeof stats;

@@ -467,6 +467,18 @@ static void test_skip_invalid(void **state) {
             TS_EXPECT_STATUS(aacbvh_bvh_get_stats(bvh, &stats), AACBVH_OK);
             assert_int_equal(stats.invalid_primitive_count, bad);
             assert_int_equal(stats.primitive_count, n - bad);
+            /* Refit checks the tree's primitives only: the ones left out stay bad. */
+            TS_EXPECT_STATUS(aacbvh_bvh_refit(bvh), AACBVH_OK);
+        }
+        /* One of the tree's own (triangle 1) made bad: refused, and named. */
+        {
+            const uint32_t k = mesh.indices[3 * 1 + 2];
+            const float keep = mesh.vertices[3 * k];
+            mesh.vertices[3 * k] = INFINITY;
+            EXPECT_FAIL(bvh, aacbvh_bvh_refit(bvh), AACBVH_ERROR_INVALID_GEOMETRY);
+            assert_non_null(strstr(aacbvh_bvh_last_error(bvh), "triangle 1 "));
+            mesh.vertices[3 * k] = keep;
+            TS_EXPECT_STATUS(aacbvh_bvh_refit(bvh), AACBVH_OK);
         }
     }
 
