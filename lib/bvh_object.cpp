@@ -248,11 +248,13 @@ void BvhObject::make_compact_layouts(BinaryTree &tree, const FlattenRule &rule, 
     const ChosenTree view = chosen_view(tree, choices);
     Array<uint32_t>().swap(tree.prim_ids); // in result.prim_ids now, in leaf order (the view holds the count)
     if (!out.topology.adopt(shape, view)) throw Error(AACBVH_ERROR_INTERNAL, "the tree's shape was not adopted");
-    out.wide8.build(view, geometry_, result.prim_ids.data(), scheduler_, [&] {
-        Array<Box>().swap(tree.boxes);
-        Array<uint32_t>().swap(tree.children);
-        SubtreeChoices().swap(choices);
-    });
+    out.wide8.build(
+        view, geometry_, result.prim_ids.data(), scheduler_,
+        [&] {
+            Array<uint32_t>().swap(tree.children);
+            SubtreeChoices().swap(choices);
+        },
+        [&] { Array<Box>().swap(tree.boxes); });
 }
 
 void BvhObject::install(Layouts &layouts) noexcept {

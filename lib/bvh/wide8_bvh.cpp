@@ -247,7 +247,8 @@ private:
 
 template <class Source>
 void Wide8Bvh::build_from(const Source &source, typename Source::Handle root, const Geometry *triangles,
-                          const uint32_t *prim_ids, Scheduler &scheduler, const std::function<void()> &source_done) {
+                          const uint32_t *prim_ids, Scheduler &scheduler, const std::function<void()> &shape_done,
+                          const std::function<void()> &source_done) {
     using Handle = typename Source::Handle;
     const bool packets = triangles != nullptr;
 
@@ -263,6 +264,10 @@ void Wide8Bvh::build_from(const Source &source, typename Source::Handle root, co
     scheduler.parallel_for(0, tasks.size(), 1, [&](size_t b, size_t e) {
         for (size_t t = b; t < e; ++t) collapser.run(tasks[t], pieces[1 + t], nullptr);
     });
+    // Only the boxes of the source are read from here on: a caller may free
+    // the rest before the arrays below are allocated (docs/PERFORMANCE.md,
+    // row 210).
+    if (shape_done) shape_done();
     uint32_t next = 0, next_packet = 0;
     for (CollapsePiece &piece : pieces) {
         piece.node_base = next;
@@ -366,13 +371,14 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     std::unique_ptr<PacketLeafSweep> sweep;
     if (triangles) sweep.reset(new PacketLeafSweep(bvh, scheduler));
     const EmittedSource source{{bvh.nodes.data(), extent_scale_of(bvh.nodes[0].box)}, sweep.get()};
-    build_from(source, 0u, triangles, bvh.prim_ids.data(), scheduler, [&] { sweep.reset(); });
+    build_from(source, 0u, triangles, bvh.prim_ids.data(), scheduler, nullptr, [&] { sweep.reset(); });
 }
 
 void Wide8Bvh::build(const ChosenTree &tree, const Geometry &triangles, const uint32_t *prim_ids,
-                     Scheduler &scheduler, const std::function<void()> &tree_done) {
+                     Scheduler &scheduler, const std::function<void()> &shape_done,
+                     const std::function<void()> &tree_done) {
     const ChosenSource source{tree, extent_scale_of(tree.boxes[tree.root])};
-    build_from(source, Place{tree.root, 0}, &triangles, prim_ids, scheduler, tree_done);
+    build_from(source, Place{tree.root, 0}, &triangles, prim_ids, scheduler, shape_done, tree_done);
     // Its sources are the builder's ids, which mean nothing once the build
     // is over: the handle keeps the binary tree's shape instead.
     release_sources();

@@ -99,11 +99,13 @@ public:
     /// The same tree with packets, collapsed straight from a builder's tree
     /// (bvh/chosen_tree.h) instead of its emitted binary nodes (which need
     /// not exist), `prim_ids` its emitted primitive order (emit_shape(),
-    /// build/flatten.h). Calls `tree_done` once the tree's boxes are read no
-    /// more (before the packets are made). Keeps no sources (refit from the
-    /// packets). Throws std::bad_alloc, keeping the previous tree.
+    /// build/flatten.h). Calls `shape_done` once the tree's children and
+    /// counts are read no more (after the collapse, before the wide nodes are
+    /// allocated) and `tree_done` once its boxes are read no more (before the
+    /// packets are made). Keeps no sources (refit from the packets). Throws
+    /// std::bad_alloc, keeping the previous tree.
     void build(const ChosenTree &tree, const Geometry &triangles, const uint32_t *prim_ids, Scheduler &scheduler,
-               const std::function<void()> &tree_done);
+               const std::function<void()> &shape_done, const std::function<void()> &tree_done);
     /// After a refit of `bvh`: copies its boxes into the wide nodes and, with
     /// packets, the triangles' new vertices from `geometry`. No allocation.
     void refit(const Bvh &bvh, const Geometry &geometry, Scheduler &scheduler);
@@ -149,7 +151,8 @@ private:
     /// Both builds: the collapse of `source` (wide8_bvh.cpp) from `root`.
     template <class Source>
     void build_from(const Source &source, typename Source::Handle root, const Geometry *triangles,
-                    const uint32_t *prim_ids, Scheduler &scheduler, const std::function<void()> &source_done);
+                    const uint32_t *prim_ids, Scheduler &scheduler, const std::function<void()> &shape_done,
+                    const std::function<void()> &source_done);
     /// Re-reads every packet's vertices from `geometry`.
     void refill_packets(const Geometry &geometry, Scheduler &scheduler);
 
