@@ -125,6 +125,9 @@ void test_degenerate(void **) {
     for (aacbvh_builder builder : kBuilders) {
         compare(same, builder, 4, 0, 2, "identical triangles");
         compare(line, builder, 4, 0, 2, "triangles on a line");
+        // Leaves of more primitives than a packet leaf's choice covers
+        // (SubtreeCounts::kSmall): one leaf each, and a packet leaf each.
+        compare(same, builder, 64, 0, 1, "identical triangles, leaves of 64");
     }
 }
 

@@ -100,8 +100,8 @@ private:
         const SubtreeCounts *const counts = choices_.counts().data();
         const Sink sink = sink_;
         uint32_t *const prim_out = prim_out_;
-        auto leaves = [=](uint32_t id) { return id < n ? 1u : counts[id - n].leaves; };
-        auto prims = [=](uint32_t id) { return id < n ? 1u : counts[id - n].prims; };
+        auto leaves = [=](uint32_t id) { return id < n ? 1u : counts[id - n].leaves(); };
+        auto prims = [=](uint32_t id) { return id < n ? 1u : counts[id - n].prims(); };
 
         std::vector<Item> stack_store(64);
         std::vector<uint32_t> gather_store(64);
@@ -142,7 +142,7 @@ private:
                 prim_out[slot] = leaf_prims[it.id];
                 continue;
             }
-            sink.leaf(it.pos, it.id, slot, counts[it.id - n].prims);
+            sink.leaf(it.pos, it.id, slot, counts[it.id - n].prims());
             const uint32_t l = children[2 * size_t(it.id - n)], r = children[2 * size_t(it.id - n) + 1];
             if (l < n && r < n) {
                 prim_out[slot] = leaf_prims[l];
@@ -220,8 +220,7 @@ double emit_shape(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoice
 }
 
 ChosenTree chosen_view(const BinaryTree &tree, const SubtreeChoices &choices) {
-    return ChosenTree{tree.boxes.data(), tree.children.data(), choices.counts().data(), choices.packet_leaves().data(),
-                      tree.leaf_count(), tree.root};
+    return ChosenTree{tree.boxes.data(), tree.children.data(), choices.counts().data(), tree.leaf_count(), tree.root};
 }
 
 } // namespace aacbvh

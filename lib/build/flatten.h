@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 
 #include "build/binary_tree.h"
 #include "build/build_context.h"
@@ -28,6 +29,8 @@ struct SubtreeChoice {
     float packet_cost = 0.0f;
     bool packet_leaf = false;
 };
+
+static_assert(SubtreeCounts::kSmall == kMaxPacketLeaf, "SubtreeCounts keeps the packet choices of packet-leaf sizes");
 
 struct FlattenRule {
     uint32_t max_leaf_size;
@@ -98,48 +101,45 @@ struct FlattenRule {
 };
 
 /// The builders' view of the choices of a tree's inner nodes (SubtreeChoices
-/// below), indexed by id - leaf_count: pointers, passed by value; the
-/// packet-leaf pointers are null unless the choices include them.
+/// below), indexed by id - leaf_count: pointers, passed by value; with
+/// `packets`, the choices include the packet-leaf ones.
 class ChoiceTable {
 public:
-    ChoiceTable(float *cost, SubtreeCounts *counts, float *packet_cost, uint8_t *packet_leaf)
-        : cost_(cost), counts_(counts), packet_cost_(packet_cost), packet_leaf_(packet_leaf) {}
-    SubtreeChoice get(size_t k) const {
-        SubtreeChoice c{cost_[k], counts_[k].prims, counts_[k].leaves};
-        if (packet_cost_) {
-            c.packet_cost = packet_cost_[k];
-            c.packet_leaf = packet_leaf_[k] != 0;
+    ChoiceTable(float *cost, SubtreeCounts *counts, bool packets) : cost_(cost), counts_(counts), packets_(packets) {}
+    SubtreeChoice get(size_t k) const { return choice(cost_[k], counts_[k], packets_); }
+    /// One node's choice from its cost and counts.
+    static SubtreeChoice choice(float cost, const SubtreeCounts &c, bool packets) {
+        SubtreeChoice out{cost, c.prims(), c.leaves()};
+        if (packets) {
+            out.packet_cost = c.packet_cost();
+            out.packet_leaf = c.packet_leaf();
         }
-        return c;
+        return out;
     }
     void set(size_t k, const SubtreeChoice &c) const {
         cost_[k] = float(c.cost);
-        counts_[k] = SubtreeCounts{c.prims, c.leaves};
-        if (packet_cost_) {
-            packet_cost_[k] = c.packet_cost;
-            packet_leaf_[k] = c.packet_leaf;
-        }
+        counts_[k] = SubtreeCounts(c.prims, c.leaves, c.packet_cost, c.packet_leaf);
     }
-    uint32_t prims(size_t k) const { return counts_[k].prims; }
+    uint32_t prims(size_t k) const { return counts_[k].prims(); }
     /// Asks for node k's counts ahead of a read (a walk over scattered ids).
     void prefetch_counts(size_t k) const { __builtin_prefetch(counts_ + k); }
 
 private:
     float *cost_;
     SubtreeCounts *counts_;
-    float *packet_cost_;
-    uint8_t *packet_leaf_;
+    bool packets_;
 };
 
 /// Choices of a tree's inner nodes, indexed by id - leaf_count, as arrays:
 /// the costs serve only while choices are made, so emit_bvh() and
-/// emit_shape() release them before they allocate the finished tree (8 bytes
+/// emit_shape() release them before they allocate the finished tree (4 bytes
 /// per primitive off the build's peak, docs/PERFORMANCE.md row 123); the
-/// counts (and the packet-leaf flags) are what the layout reads. The costs
-/// are kept in single precision (4 bytes a node off AAC's peak, row 177);
-/// FlattenRule::inner() adds them in double. The rounding (2^-24 of a cost)
-/// can flip a near tie between one leaf and a sub-tree: of the shared
-/// scenes, sibenik's trees changed, at the same SAH to six digits.
+/// counts, with the packet-leaf choices of small subtrees inside
+/// (SubtreeCounts, bvh/chosen_tree.h; row 212), are what the layout reads.
+/// The costs are kept in single precision (4 bytes a node off AAC's peak,
+/// row 177); FlattenRule::inner() adds them in double. The rounding (2^-24
+/// of a cost) can flip a near tie between one leaf and a sub-tree: of the
+/// shared scenes, sibenik's trees changed, at the same SAH to six digits.
 class SubtreeChoices {
 public:
     /// With `packets`, the choices include the packet-leaf ones
@@ -147,49 +147,29 @@ public:
     void resize(size_t n, bool packets = false) {
         cost_.resize(n);
         counts_.resize(n);
-        packet_cost_.resize(packets ? n : 0);
-        packet_leaf_.resize(packets ? n : 0);
+        packets_ = packets;
     }
-    SubtreeChoice get(size_t k) const {
-        SubtreeChoice c{cost_[k], counts_[k].prims, counts_[k].leaves};
-        if (!packet_cost_.empty()) {
-            c.packet_cost = packet_cost_[k];
-            c.packet_leaf = packet_leaf_[k] != 0;
-        }
-        return c;
-    }
+    SubtreeChoice get(size_t k) const { return ChoiceTable::choice(cost_[k], counts_[k], packets_); }
     void set(size_t k, const SubtreeChoice &c) { table().set(k, c); }
     double cost(size_t k) const { return cost_[k]; }
-    uint32_t prims(size_t k) const { return counts_[k].prims; }
-    uint32_t leaves(size_t k) const { return counts_[k].leaves; }
-    void set_prims(size_t k, uint32_t prims) { counts_[k].prims = prims; }
-    ChoiceTable table() {
-        const bool packets = !packet_leaf_.empty();
-        return ChoiceTable(cost_.data(), counts_.data(), packets ? packet_cost_.data() : nullptr,
-                           packets ? packet_leaf_.data() : nullptr);
-    }
-    /// Frees the costs (the packet-leaf ones too); get() and set() are then
-    /// out of bounds.
-    void release_costs() {
-        Array<float>().swap(cost_);
-        Array<float>().swap(packet_cost_);
-    }
+    uint32_t prims(size_t k) const { return counts_[k].prims(); }
+    uint32_t leaves(size_t k) const { return counts_[k].leaves(); }
+    void set_prims(size_t k, uint32_t prims) { counts_[k] = SubtreeCounts(prims, 0); }
+    ChoiceTable table() { return ChoiceTable(cost_.data(), counts_.data(), packets_); }
+    /// Frees the costs; get() and set() are then out of bounds.
+    void release_costs() { Array<float>().swap(cost_); }
     void swap(SubtreeChoices &other) {
         cost_.swap(other.cost_);
         counts_.swap(other.counts_);
-        packet_cost_.swap(other.packet_cost_);
-        packet_leaf_.swap(other.packet_leaf_);
+        std::swap(packets_, other.packets_);
     }
-    /// The counts alone (the binary emit reads them through a pointer).
+    /// The counts (the emits and the layouts read them through a pointer).
     const Array<SubtreeCounts> &counts() const { return counts_; }
-    /// Whether each node is one packet leaf (empty unless included).
-    const Array<uint8_t> &packet_leaves() const { return packet_leaf_; }
 
 private:
     Array<float> cost_;
     Array<SubtreeCounts> counts_;
-    Array<float> packet_cost_;
-    Array<uint8_t> packet_leaf_;
+    bool packets_ = false;
 };
 
 /// Bottom-up pass for builders that did not decide while building.

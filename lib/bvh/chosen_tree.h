@@ -14,16 +14,55 @@
 #pragma once
 
 #include <cstdint>
+#include <cstring>
 
 #include "core/box.h"
 
 namespace aacbvh {
 
-/// What the layout reads of an inner node's flattening choice.
-struct SubtreeCounts {
-    uint32_t prims;  ///< primitives below
-    uint32_t leaves; ///< leaves kept below (1: the node is one leaf)
+/// What the layout reads of an inner node's flattening choice, in 8 bytes:
+/// the primitives below, the leaves kept below (1: the node is one leaf),
+/// and, for the 8-wide layout's packets (FlattenRule::packets,
+/// build/flatten.h), whether the subtree is one packet leaf and its cost
+/// there. Those two matter only for subtrees of at most kSmall primitives
+/// (above, a node is a packet leaf exactly when it is one leaf, and its
+/// cost is read by no choice), so a small subtree keeps its counts in one
+/// word (flag, primitives, leaves, packet-leaf bit) and its packet cost in
+/// the other; a larger one its primitives (< 2^31: node ids are 32-bit) and
+/// leaves. 5 bytes a node less than separate packet arrays at AAC's peak
+/// (docs/PERFORMANCE.md, row 212).
+class SubtreeCounts {
+public:
+    /// Subtrees of at most this many primitives keep a packet choice
+    /// (kMaxPacketLeaf, bvh/packet_leaf_sweep.h).
+    static constexpr uint32_t kSmall = 16;
+
+    SubtreeCounts() = default;
+    SubtreeCounts(uint32_t prims, uint32_t leaves, float packet_cost = 0.0f, bool packet_leaf = false) {
+        if (prims <= kSmall) {
+            a_ = kSmallFlag | prims | (leaves << 8) | (packet_leaf ? kPacketLeafFlag : 0u);
+            std::memcpy(&b_, &packet_cost, sizeof b_);
+        } else {
+            a_ = prims;
+            b_ = leaves;
+        }
+    }
+    uint32_t prims() const { return small() ? a_ & 0xFFu : a_; }
+    uint32_t leaves() const { return small() ? (a_ >> 8) & 0xFFu : b_; }
+    float packet_cost() const {
+        float c = 0.0f;
+        if (small()) std::memcpy(&c, &b_, sizeof c);
+        return c;
+    }
+    bool packet_leaf() const { return small() ? (a_ & kPacketLeafFlag) != 0 : b_ == 1; }
+
+private:
+    static constexpr uint32_t kSmallFlag = 1u << 31, kPacketLeafFlag = 1u << 16;
+    bool small() const { return (a_ & kSmallFlag) != 0; }
+    uint32_t a_ = 0, b_ = 0;
 };
+
+static_assert(sizeof(SubtreeCounts) == 8, "SubtreeCounts must stay 8 bytes");
 
 struct ChosenTree {
     /// Ids [0, n) are one-primitive leaves; an inner id k has children
@@ -31,20 +70,19 @@ struct ChosenTree {
     const Box *boxes;
     const uint32_t *children;
     const SubtreeCounts *counts;
-    /// Per inner id - n: whether the 8-wide layout keeps the subtree whole as
-    /// one packet leaf (FlattenRule::packets, build/flatten.h); set for every
-    /// leaf of the emitted layout.
-    const uint8_t *packet_leaf;
     uint32_t n;
     uint32_t root;
 
     uint32_t left(uint32_t id) const { return children[2 * size_t(id - n)]; }
     uint32_t right(uint32_t id) const { return children[2 * size_t(id - n) + 1]; }
-    uint32_t prims(uint32_t id) const { return id < n ? 1u : counts[id - n].prims; }
-    uint32_t leaves(uint32_t id) const { return id < n ? 1u : counts[id - n].leaves; }
+    uint32_t prims(uint32_t id) const { return id < n ? 1u : counts[id - n].prims(); }
+    uint32_t leaves(uint32_t id) const { return id < n ? 1u : counts[id - n].leaves(); }
     /// A leaf of the emitted layout: one primitive, or a subtree kept whole.
     bool is_leaf(uint32_t id) const { return leaves(id) == 1; }
-    bool is_packet_leaf(uint32_t id) const { return id < n || packet_leaf[id - n] != 0; }
+    /// Whether the 8-wide layout keeps the subtree whole as one packet leaf
+    /// (FlattenRule::packets, build/flatten.h): every leaf of the emitted
+    /// layout is one.
+    bool is_packet_leaf(uint32_t id) const { return id < n || counts[id - n].packet_leaf(); }
 };
 
 /// A node with its first leaf slot in the emitted layout.
