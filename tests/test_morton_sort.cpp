@@ -28,11 +28,11 @@ namespace {
 
 using aacbvh::Box;
 
-aacbvh::BuildInput make_input(const std::vector<Box> &boxes) { return aacbvh_test::box_input(boxes); }
+using aacbvh_test::box_input;
 
 /// Fails unless sort_by_morton_code gives the stable sort of the codes.
 void check_sorted(const std::vector<Box> &boxes, unsigned threads) {
-    const aacbvh::BuildInput in = make_input(boxes);
+    const aacbvh::BuildInput in = box_input(boxes);
     const aacbvh::MortonQuantizer quantizer(in.centroid_bounds);
     std::vector<uint64_t> code(boxes.size());
     std::vector<uint32_t> want(boxes.size());

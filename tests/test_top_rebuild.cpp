@@ -32,7 +32,7 @@ using aacbvh::FlattenRule;
 using aacbvh::SubtreeChoice;
 using aacbvh::SubtreeChoices;
 
-aacbvh::BuildInput make_input(const std::vector<Box> &boxes) { return aacbvh_test::box_input(boxes); }
+using aacbvh_test::box_input;
 
 FlattenRule rule_for(const aacbvh::BuildInput &in, uint32_t max_leaf_size = 4) {
     FlattenRule rule{max_leaf_size, 1.2, 1.0};
@@ -45,7 +45,7 @@ void build_clustered(const std::vector<Box> &boxes, const FlattenRule &rule, Bin
                      SubtreeChoices &choices, unsigned threads = 1) {
     aacbvh::Scheduler scheduler(threads);
     aacbvh::BuildContext ctx(scheduler, nullptr, nullptr);
-    aacbvh::BuildInput in = make_input(boxes);
+    aacbvh::BuildInput in = box_input(boxes);
     aacbvh::AacConfig config{20, 3.02, 0.4, 1, 2.3, 0.4, 1, 0};
     aacbvh::build_aac(in, config, rule, ctx, tree, choices);
 }
@@ -155,7 +155,7 @@ void walk(const BinaryTree &t, uint32_t root, std::vector<uint32_t> &ids, std::v
 /// untouched; the sub-trees below the cut are untouched; the choices agree
 /// with a recount from scratch. Returns whether the top was replaced.
 bool check_rebuild(const std::vector<Box> &boxes, uint32_t cut, uint32_t max_leaf_size = 4) {
-    const FlattenRule rule = rule_for(make_input(boxes), max_leaf_size);
+    const FlattenRule rule = rule_for(box_input(boxes), max_leaf_size);
     BinaryTree tree;
     SubtreeChoices choices;
     build_clustered(boxes, rule, tree, choices);
@@ -281,7 +281,7 @@ void test_random_soups(void **) {
 // primitive: the full-sweep SAH builder's tree, cost for cost.
 void test_cut_at_leaves_is_full_sweep(void **) {
     const std::vector<Box> boxes = sphere_soup(3000, 11);
-    const aacbvh::BuildInput in = make_input(boxes);
+    const aacbvh::BuildInput in = box_input(boxes);
     const FlattenRule rule = rule_for(in);
     BinaryTree tree;
     SubtreeChoices choices;
@@ -302,7 +302,7 @@ void test_cut_at_leaves_is_full_sweep(void **) {
 // (thousands of sub-trees, so that both sides of the top splits fork).
 void test_same_at_any_thread_count(void **) {
     const std::vector<Box> boxes = sphere_soup(40000, 3);
-    const FlattenRule rule = rule_for(make_input(boxes));
+    const FlattenRule rule = rule_for(box_input(boxes));
     std::vector<uint32_t> first_children;
     std::vector<Box> first_boxes;
     for (unsigned threads : {1u, 2u, 3u}) {
