@@ -121,7 +121,7 @@ std::string compare_paths(const Geometry &g, bool skip_invalid, unsigned threads
         const BuildInput &other = in[k];
         assert_int_equal(other.size(), fast.size());
         assert_int_equal(other.invalid_count, fast.invalid_count);
-        const bool room = rooms[k] == InputRoom::Tree && g.primitive_count >= aacbvh::kRoomFrom;
+        const bool room = rooms[k] == InputRoom::Tree;
         assert_int_equal(other.box_offset, room ? g.primitive_count : 0);
         assert_int_equal(other.boxes.size(), other.box_offset + other.size());
         const std::vector<aacbvh::Box> boxes = boxes_of(other);
@@ -163,11 +163,11 @@ void test_invalid_triangles_skipped(void **) {
     assert_true(input.size() + input.invalid_count == 50000);
 }
 
-/// Inputs big enough for InputRoom::Tree to make room, valid and with
-/// invalid triangles left out (the squeeze moves boxes within the upper half).
+/// Inputs in a big block with room for the tree (InputRoom::Tree), valid and
+/// with invalid triangles left out (the squeeze moves boxes within the upper half).
 void test_room_for_the_tree(void **) {
     Soup soup;
-    const size_t count = aacbvh::kRoomFrom + 1234;
+    const size_t count = 2 * aacbvh::kHugePageBytes / sizeof(aacbvh::Box) + 1234; // a big block
     for (uint32_t seed = 31; seed <= 34; ++seed) {
         const bool invalid = seed % 2 == 0;
         make_soup(soup, seed, count, 40000, 12, invalid ? 2 : 0, invalid ? 3 : 0, seed != 33);

@@ -44,16 +44,21 @@ void check_sorted(const std::vector<Box> &boxes, unsigned threads) {
     std::stable_sort(want.begin(), want.end(), [&](uint32_t a, uint32_t b) { return code[a] < code[b]; });
 
     aacbvh::Scheduler scheduler(threads);
-    aacbvh::Array<uint64_t> codes;
-    aacbvh::Array<uint32_t> order;
-    aacbvh::sort_by_morton_code(in, scheduler, codes, order);
-    assert_int_equal(codes.size(), boxes.size());
-    assert_int_equal(order.size(), boxes.size());
-    for (size_t i = 0; i < boxes.size(); ++i) {
-        if (order[i] != want[i] || codes[i] != code[want[i]])
-            fail_msg("%zu boxes, %u threads: entry %zu is %u (code %llx), expected %u (code %llx)", boxes.size(),
-                     threads, i, order[i], (unsigned long long)codes[i], want[i],
-                     (unsigned long long)code[want[i]]);
+    // The sort in memory of its own and in the caller's room (filled with
+    // junk first: the sort must not read what it did not write).
+    std::vector<uint64_t> room(aacbvh::kMortonSortWords * boxes.size(), 0x5A5A5A5A5A5A5A5Aull);
+    for (uint64_t *work : {static_cast<uint64_t *>(nullptr), room.data()}) {
+        aacbvh::Array<uint64_t> codes;
+        aacbvh::Array<uint32_t> order;
+        aacbvh::sort_by_morton_code(in, scheduler, codes, order, work);
+        assert_int_equal(codes.size(), boxes.size());
+        assert_int_equal(order.size(), boxes.size());
+        for (size_t i = 0; i < boxes.size(); ++i) {
+            if (order[i] != want[i] || codes[i] != code[want[i]])
+                fail_msg("%zu boxes, %u threads, %s: entry %zu is %u (code %llx), expected %u (code %llx)",
+                         boxes.size(), threads, work ? "room" : "own", i, order[i], (unsigned long long)codes[i],
+                         want[i], (unsigned long long)code[want[i]]);
+        }
     }
 }
 

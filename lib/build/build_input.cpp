@@ -164,7 +164,7 @@ ChunkSummary triangle_chunk(const Geometry &geometry, size_t b, size_t e, BuildI
 void compute_build_input(const Geometry &geometry, bool skip_invalid, BuildContext &ctx, BuildInput &input,
                          InputPath path, InputRoom room) {
     const size_t n = geometry.primitive_count;
-    input.box_offset = room == InputRoom::Tree && n >= kRoomFrom ? n : 0;
+    input.box_offset = room == InputRoom::Tree ? n : 0;
     input.boxes.resize(input.box_offset + n);
     input.prim_ids.resize(n);
 

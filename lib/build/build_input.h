@@ -32,15 +32,12 @@ struct BuildInput {
 /// Whether the input's box array leaves room for a BinaryTree's boxes
 /// (BuildInput::box_offset): for builders that gather their leaves into it
 /// (AAC). A build that keeps the input's boxes beside the tree (the SAH
-/// builders, PLOC) would only hold more memory.
+/// builders, PLOC) would only hold more memory. AAC's Morton sort works in
+/// that room before the tree takes it (build/morton.h). Every input size gets
+/// it: the sort's 24 bytes a primitive in memory already mapped paid for the
+/// fresh block that cost scenes of 66-75 K triangles 4-11 % before
+/// (docs/PERFORMANCE.md, rows 176 and 214).
 enum class InputRoom { None, Tree };
-
-/// InputRoom::Tree makes room from this many primitives, whose boxes fill a
-/// big block (core/memory.h). Smaller inputs' boxes come from the build's
-/// slabs, warm from earlier builds, and a fresh block of twice their size
-/// cost AAC-HQ 4-11 % on scenes of 66-75 K triangles (docs/PERFORMANCE.md,
-/// row 176).
-constexpr size_t kRoomFrom = kHugePageBytes / sizeof(Box);
 
 /// Why primitive i of the geometry is invalid (NaN or infinite coordinates,
 /// vertex index out of range, box min > max), or nullptr if it is fine.

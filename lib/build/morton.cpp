@@ -9,7 +9,7 @@
 namespace aacbvh {
 
 void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<uint64_t> &codes,
-                         Array<uint32_t> &order) {
+                         Array<uint32_t> &order, uint64_t *room) {
     // The radix sort moves the codes' high 32 bits as keys, with their low 31
     // bits and the input index as one 64-bit value: three passes of 12 bytes
     // per primitive instead of six. Codes that share their high half (a few,
@@ -18,8 +18,16 @@ void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<ui
     // whole codes.
     constexpr unsigned kLowBits = 31;
     const size_t n = input.size();
-    Array<uint32_t> high(n);
-    Array<uint64_t> low_index(n);
+    // The work, 24 bytes a primitive: values, spare values, keys, spare
+    // keys. In the caller's room it costs no memory of its own (AAC's build
+    // peak was this sort's, 76 bytes a triangle; docs/PERFORMANCE.md, row 214).
+    Array<uint64_t> own;
+    if (room == nullptr) {
+        own.resize(kMortonSortWords * n);
+        room = own.data();
+    }
+    uint64_t *low_index = room, *low_spare = room + n;
+    uint32_t *high = reinterpret_cast<uint32_t *>(room + 2 * n), *high_spare = high + n;
     const MortonQuantizer quantizer(input.centroid_bounds);
     scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i) {
@@ -28,7 +36,10 @@ void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<ui
             low_index[i] = (code & ((uint64_t(1) << kLowBits) - 1)) << 32 | i;
         }
     });
-    radix_sort_pairs(high, low_index, 63 - kLowBits, scheduler);
+    if (radix_sort_pairs(high, low_index, high_spare, low_spare, n, 63 - kLowBits, scheduler)) {
+        std::swap(high, high_spare);
+        std::swap(low_index, low_spare);
+    }
     // A run of equal high halves is sorted by the chunk it starts in: short
     // runs by std::sort; long ones (most of conference's primitives lie in
     // runs of 512 and more) by bytes instead of comparisons, in a second pass
@@ -55,25 +66,22 @@ void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<ui
                 std::sort(&low_index[first], &low_index[first] + length);
         });
     });
-    if (long_runs.load()) {
-        Array<uint64_t> scratch(n); // each run uses its own range of it
+    if (long_runs.load()) { // each run uses its own range of the spare values
         scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
             for_each_run(b, e, [&](size_t first, size_t length) {
-                if (length >= kRadixRun) radix_sort_high_halves(&low_index[first], &scratch[first], length);
+                if (length >= kRadixRun) radix_sort_high_halves(&low_index[first], &low_spare[first], length);
             });
         });
     }
-    // Unpacked in place: the high halves' array becomes the order, the
-    // values' array the codes.
+    codes.resize(n);
+    order.resize(n);
     scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i) {
             const uint64_t v = low_index[i];
-            low_index[i] = uint64_t(high[i]) << kLowBits | v >> 32;
-            high[i] = uint32_t(v);
+            codes[i] = uint64_t(high[i]) << kLowBits | v >> 32;
+            order[i] = uint32_t(v);
         }
     });
-    codes.swap(low_index);
-    order.swap(high);
 }
 
 namespace {

@@ -120,8 +120,13 @@ private:
 /// Sorts the input's primitives by the Morton codes of their box centroids
 /// (quantised in input.centroid_bounds): codes[i] is the i-th smallest code
 /// and order[i] the input entry it belongs to. Equal codes keep input order.
+/// The sort works in kMortonSortWords 64-bit words a primitive: `room`'s
+/// when the caller has them to spare (at least that many times
+/// input.size(), 8-byte aligned; AAC passes the room it keeps for its tree
+/// in the input's box array, InputRoom::Tree), else an array of its own.
+constexpr size_t kMortonSortWords = 3;
 void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<uint64_t> &codes,
-                         Array<uint32_t> &order);
+                         Array<uint32_t> &order, uint64_t *room = nullptr);
 
 /// Morton codes of `count` boxes (`box_at(i)`) on a grid over their own
 /// centroids, into `codes[0, count)`, and into `rank` the positions in the

@@ -14,9 +14,10 @@ constexpr size_t kMinChunk = 1u << 14;
 } // namespace
 
 template <class Key, class Value>
-void sort_pairs(Array<Key> &keys, Array<Value> &values, unsigned key_bits, Scheduler &scheduler) {
-    const size_t n = keys.size();
-    if (n < 2) return;
+bool sort_pairs(Key *keys, Value *values, Key *keys_tmp, Value *values_tmp, size_t n, unsigned key_bits,
+                Scheduler &scheduler) {
+    bool in_tmp = false;
+    if (n < 2) return in_tmp;
     const unsigned passes = (key_bits + kDigitBits - 1) / kDigitBits;
     // Each chunk counts and scatters its own slice; the scatter of chunk c
     // starts where chunks 0..c-1 of the same digit end, so the sort is stable
@@ -27,8 +28,6 @@ void sort_pairs(Array<Key> &keys, Array<Value> &values, unsigned key_bits, Sched
                               : std::max<size_t>(1, std::min<size_t>(scheduler.thread_count() * 4, n / kMinChunk));
     const size_t chunk_size = (n + chunks - 1) / chunks;
 
-    Array<Key> keys_tmp(n);
-    Array<Value> values_tmp(n);
     std::vector<uint32_t> counts(chunks * kBuckets);
     // With one chunk, a pass's counts are those of the whole array, in any
     // order: every pass's counts from one read of the keys.
@@ -82,17 +81,38 @@ void sort_pairs(Array<Key> &keys, Array<Value> &values, unsigned key_bits, Sched
                 }
             }
         });
+        std::swap(keys, keys_tmp);
+        std::swap(values, values_tmp);
+        in_tmp = !in_tmp;
+    }
+    return in_tmp;
+}
+
+/// The sort of whole arrays: the spare pair allocated here, and the arrays
+/// swapped when the result ends in it.
+template <class Key, class Value>
+void sort_arrays(Array<Key> &keys, Array<Value> &values, unsigned key_bits, Scheduler &scheduler) {
+    const size_t n = keys.size();
+    if (n < 2) return;
+    Array<Key> keys_tmp(n);
+    Array<Value> values_tmp(n);
+    if (sort_pairs(keys.data(), values.data(), keys_tmp.data(), values_tmp.data(), n, key_bits, scheduler)) {
         keys.swap(keys_tmp);
         values.swap(values_tmp);
     }
 }
 
 void radix_sort_pairs(Array<uint64_t> &keys, Array<uint32_t> &values, unsigned key_bits, Scheduler &scheduler) {
-    sort_pairs(keys, values, key_bits, scheduler);
+    sort_arrays(keys, values, key_bits, scheduler);
 }
 
 void radix_sort_pairs(Array<uint32_t> &keys, Array<uint64_t> &values, unsigned key_bits, Scheduler &scheduler) {
-    sort_pairs(keys, values, key_bits, scheduler);
+    sort_arrays(keys, values, key_bits, scheduler);
+}
+
+bool radix_sort_pairs(uint32_t *keys, uint64_t *values, uint32_t *keys_tmp, uint64_t *values_tmp, size_t n,
+                      unsigned key_bits, Scheduler &scheduler) {
+    return sort_pairs(keys, values, keys_tmp, values_tmp, n, key_bits, scheduler);
 }
 
 void radix_sort_high_halves(uint64_t *values, uint64_t *scratch, size_t count) {

@@ -18,6 +18,11 @@ void radix_sort_pairs(Array<uint64_t> &keys, Array<uint32_t> &values, unsigned k
 /// The same for 32-bit keys with 64-bit values (build/morton.cpp sorts the
 /// codes' high half this way, carrying their low half and the index).
 void radix_sort_pairs(Array<uint32_t> &keys, Array<uint64_t> &values, unsigned key_bits, Scheduler &scheduler);
+/// The same over keys[0, n) and values[0, n), passing between them and the
+/// caller's keys_tmp[0, n) and values_tmp[0, n) instead of arrays of its
+/// own; true when the result ends in the tmp pair.
+bool radix_sort_pairs(uint32_t *keys, uint64_t *values, uint32_t *keys_tmp, uint64_t *values_tmp, size_t n,
+                      unsigned key_bits, Scheduler &scheduler);
 
 /// Sorts values[0, count) by their high halves (bits 32-63), stably, on the
 /// calling thread: byte-wise LSD passes between values and scratch[0, count),

@@ -6,7 +6,7 @@
 // 2. Downward phase: split the sorted range at the highest bit on which its
 //    codes differ (the middle when all are equal) until fewer than delta remain.
 // 3. Upward phase: each range greedily combines the clusters its two halves
-//    handed up (contiguous in `clusters`, as the paper's "reduce data
+//    handed up (contiguous in one list, as the paper's "reduce data
 //    movement" asks) down to f(n) = ceil(c n^alpha); the root down to one
 //    (the presets first split the root's clusters by SAH: top_split.h).
 // 4. The presets only: the top above the finished tree's sub-trees of at most
@@ -15,7 +15,7 @@
 //
 // Node ids are deterministic whatever the thread count: the range [b, e) owns
 // the inner ids n + b .. n + e - 1 and uses fewer than e - b of them; the ids a
-// range leaves unused travel up beside its clusters in `free_ids`.
+// range leaves unused travel up beside its clusters (ClusterList::free).
 #include <algorithm>
 #include <cmath>
 
@@ -103,54 +103,100 @@ public:
     AacRecursion(const AacConfig &config, const FlattenRule &rule, BuildContext &ctx, BinaryTree &tree,
                  SubtreeChoices &choices, uint8_t *prefix, float scale)
         : config_(config), rule_(rule), ctx_(ctx), tree_(tree), choices_(choices.table()), prefix_(prefix), scale_(scale),
-          n_(tree.leaf_count()), grain_(parallel_grain(n_)), clusters_(n_), free_ids_(n_), scratch_(MemoryMeter::current()) {
+          n_(tree.leaf_count()), grain_(parallel_grain(n_)), meter_(MemoryMeter::current()), scratch_(meter_) {
         // f(n) of the many small nodes comes from a table instead of pow().
         small_targets_.resize(std::min<uint32_t>(n_, kTargetTableSize) + 1);
         aac_cluster_targets(config_, uint32_t(small_targets_.size()), small_targets_.data());
     }
 
     void run() {
-        build(0, n_, scale_, true);
-        tree_.root = clusters_[0];
+        const ClusterList top = build_task(0, n_, scale_, true);
+        tree_.root = top.ids[0];
     }
 
 private:
-    /// Builds range [b, e); returns how many clusters it leaves in clusters_[b, b + count).
-    /// The root range combines down to one cluster. `scale` is the clustering
-    /// distances' (distance_scale()): the scene's, or a refined range's own
-    /// (refine_codes()).
-    uint32_t build(uint32_t b, uint32_t e, float scale, bool root = false) {
+    /// The clusters a range hands up, and beside each an inner id it left
+    /// unused (a range of n primitives owns n inner ids and leaves unused as
+    /// many as it hands up clusters): ids[0, count) and free[0, count).
+    struct ClusterList {
+        Array<uint32_t> ids, free;
+        uint32_t count = 0;
+        explicit ClusterList(uint32_t room) : ids(room), free(room) {}
+    };
+
+    /// Builds range [b, e) into a list of its own. Only the clusters that are
+    /// alive take memory: a range of fewer than grain_ primitives works in
+    /// arrays of its own length, at most one per thread at a time, and a
+    /// longer one forks its halves and merges what they hand up (f(n) of
+    /// each), instead of arrays of n ids and n free ids for the whole build
+    /// (8 bytes a primitive at the build's peak; docs/PERFORMANCE.md, row 213).
+    ClusterList build_task(uint32_t b, uint32_t e, float scale, bool root = false) {
+        const uint32_t n = e - b;
+        const MemoryMeter::Scope metered(meter_); // counted on any thread
+        if (n < grain_) {
+            ClusterList list(n);
+            list.count = build(b, e, scale, list.ids.data(), list.free.data(), root);
+            return list;
+        }
+        ctx_.poll();
+        const uint32_t m = split_at(b, e, scale);
+        ClusterList left(0), right(0);
+        ctx_.scheduler().fork_join([&] { left = build_task(b, m, scale); }, [&] { right = build_task(m, e, scale); });
+        ctx_.check_cancelled();
+        ClusterList both(left.count + right.count);
+        std::copy_n(left.ids.data(), left.count, both.ids.data());
+        std::copy_n(right.ids.data(), right.count, both.ids.data() + left.count);
+        std::copy_n(left.free.data(), left.count, both.free.data());
+        std::copy_n(right.free.data(), right.count, both.free.data() + left.count);
+        both.count = reduce(both.ids.data(), both.free.data(), left.count, right.count, n, scale, root);
+        return both;
+    }
+
+    /// Builds range [b, e) on this thread, in ids[0, e - b) and free[0, e - b)
+    /// (position b + i of the range at i); returns how many clusters it
+    /// leaves in ids[0, count). The root range combines down to one cluster.
+    /// `scale` is the clustering distances' (distance_scale()): the scene's,
+    /// or a refined range's own (refine_codes()).
+    uint32_t build(uint32_t b, uint32_t e, float scale, uint32_t *ids, uint32_t *free, bool root = false) {
         const uint32_t n = e - b;
         if (n < config_.delta) {
             for (uint32_t i = 0; i < n; ++i) {
-                clusters_[b + i] = b + i;
-                free_ids_[b + i] = n_ + b + i;
+                ids[i] = b + i;
+                free[i] = n_ + b + i;
             }
             const uint32_t t = root ? 1 : target(config_.delta);
             if (n <= t) return n; // nothing to merge (combine_clusters' own first test, without the call)
-            return combine_clusters(tree_, &clusters_[b], &free_ids_[b], n, t, scale, rule_, choices_, scratch_, ctx_);
+            return combine_clusters(tree_, ids, free, n, t, scale, rule_, choices_, scratch_, ctx_);
         }
         if (n >= 256) ctx_.poll();
-        RadixSplit split = radix_split(prefix_, b, e);
-        if (split.equal && n >= kRefineFrom && refine_codes(b, e, scale)) split = radix_split(prefix_, b, e);
-        const uint32_t m = split.at;
-        uint32_t left = 0, right = 0;
-        if (n >= grain_) {
-            ctx_.scheduler().fork_join([&] { left = build(b, m, scale); }, [&] { right = build(m, e, scale); });
-            ctx_.check_cancelled();
-        } else {
-            left = build(b, m, scale);
-            right = build(m, e, scale);
-        }
+        const uint32_t m = split_at(b, e, scale);
+        const uint32_t left = build(b, m, scale, ids, free);
+        const uint32_t right = build(m, e, scale, ids + (m - b), free + (m - b));
         // The right half's clusters and free ids move next to the left half's.
-        std::copy(&clusters_[m], &clusters_[m] + right, &clusters_[b + left]);
-        std::copy(&free_ids_[m], &free_ids_[m] + right, &free_ids_[b + left]);
+        std::copy(ids + (m - b), ids + (m - b) + right, ids + left);
+        std::copy(free + (m - b), free + (m - b) + right, free + left);
+        return reduce(ids, free, left, right, n, scale, root);
+    }
+
+    /// Where range [b, e) splits: at the highest bit on which its codes
+    /// differ, after giving it codes of its own when they are all equal
+    /// (refine_codes(), which may set `scale`).
+    uint32_t split_at(uint32_t b, uint32_t e, float &scale) {
+        RadixSplit split = radix_split(prefix_, b, e);
+        if (split.equal && e - b >= kRefineFrom && refine_codes(b, e, scale)) split = radix_split(prefix_, b, e);
+        return split.at;
+    }
+
+    /// Merges the left + right clusters a range of n primitives' halves handed
+    /// up, side by side in ids and free, down to f(n) (the root: to one);
+    /// returns how many are left.
+    uint32_t reduce(uint32_t *ids, uint32_t *free, uint32_t left, uint32_t right, uint32_t n, float scale, bool root) {
         if (root && config_.root_split_levels > 0) {
-            clusters_[b] = split_root(&clusters_[b], &free_ids_[b], left + right, config_.root_split_levels);
+            ids[0] = split_root(ids, free, left + right, config_.root_split_levels);
             return 1;
         }
-        return combine_clusters(tree_, &clusters_[b], &free_ids_[b], left + right, root ? 1 : target(n), scale, rule_,
-                                choices_, scratch_, ctx_);
+        return combine_clusters(tree_, ids, free, left + right, root ? 1 : target(n), scale, rule_, choices_, scratch_,
+                                ctx_);
     }
 
     SubtreeChoice choice(uint32_t id) const { return id < n_ ? rule_.leaf(tree_.boxes[id]) : choices_.get(id - n_); }
@@ -243,8 +289,7 @@ private:
     float scale_;
     uint32_t n_;
     uint32_t grain_; ///< parallel_grain(n_)
-    Array<uint32_t> clusters_;
-    Array<uint32_t> free_ids_;
+    MemoryMeter *meter_; ///< the build's, installed on the threads that run its tasks
     std::vector<uint32_t> small_targets_;
     CombineScratchPool scratch_;
 };
@@ -256,7 +301,12 @@ void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &ru
     const uint32_t n = uint32_t(input.size());
     Array<uint64_t> codes;
     Array<uint32_t> order;
-    sort_by_morton_code(input, ctx.scheduler(), codes, order);
+    // The sort works in the room the input keeps for the tree's inner boxes
+    // (InputRoom::Tree: 24 bytes a primitive, as many as the sort needs).
+    static_assert(kMortonSortWords * sizeof(uint64_t) <= sizeof(Box));
+    const bool roomy = input.box_offset >= n && reinterpret_cast<uintptr_t>(input.boxes.data()) % alignof(uint64_t) == 0;
+    uint64_t *room = roomy ? reinterpret_cast<uint64_t *>(input.boxes.data()) : nullptr;
+    sort_by_morton_code(input, ctx.scheduler(), codes, order, room);
     // The splits need only the prefix lengths: one byte a primitive instead
     // of eight through the rest of the build (docs/PERFORMANCE.md, row 175).
     Array<uint8_t> prefix(n + kPrefixPadding, 0);
@@ -287,6 +337,7 @@ void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &ru
     }
     choices.resize(n, rule.packets);
     AacRecursion(config, rule, ctx, out, choices, prefix.data(), distance_scale(input.bounds)).run();
+    Array<uint8_t>().swap(prefix);
     // The top rebuilt over the sub-trees of at most top_rebuild_prims
     // primitives, tried first over sub-trees four times that size (about a
     // quarter of the work): where that coarse top does not beat AAC's, the

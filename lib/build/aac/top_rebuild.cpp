@@ -1,6 +1,7 @@
 #include "build/aac/top_rebuild.h"
 
 #include <algorithm>
+#include <type_traits>
 #include <vector>
 
 #include "build/radix_sort.h"
@@ -89,6 +90,24 @@ public:
             boxes_[i] = SweepBox::of(tree_.boxes[elements_[i]]);
             prims_[i] = prims_of(elements_[i]);
         }
+        sort_all(count);
+        const uint32_t root = split_all(count);
+        // The build's peak lies here (docs/PERFORMANCE.md, row 214): what
+        // only the sweeps read goes before the choices come.
+        release(order_[0], order_[1], order_[2], boxes_, prims_, scratch_, right_area_, right_prims_, goes_left_);
+        choose(count, root);
+        // The root's flattened cost, stored in single precision as the
+        // choices store it: the new top only where it is strictly cheaper.
+        if (!(float(node_choice_[root].cost) < float(choices_.get(tree_.root - n_).cost))) return false;
+        commit(count, root);
+        return true;
+    }
+
+private:
+    template <class... Arrays> static void release(Arrays &...arrays) { (std::decay_t<Arrays>().swap(arrays), ...); }
+
+    /// The elements' indices sorted by centroid on each axis (order_).
+    void sort_all(uint32_t count) {
         Array<uint64_t> keys[3];
         for (int axis = 0; axis < 3; ++axis) {
             keys[axis].resize(count);
@@ -104,16 +123,8 @@ public:
         } else {
             for (int axis = 0; axis < 3; ++axis) sort_axis(axis, keys[axis]);
         }
-        const uint32_t root = split_all(count);
-        choose(count, root);
-        // The root's flattened cost, stored in single precision as the
-        // choices store it: the new top only where it is strictly cheaper.
-        if (!(float(node_choice_[root].cost) < float(choices_.get(tree_.root - n_).cost))) return false;
-        commit(count, root);
-        return true;
     }
 
-private:
     /// The maximal sub-trees of at most cut_ primitives (elements_, left to
     /// right) and the inner nodes above them (top_ids_).
     void collect() {
