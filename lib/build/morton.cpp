@@ -11,8 +11,8 @@ namespace aacbvh {
 void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<uint64_t> &codes,
                          Array<uint32_t> &order, uint64_t *room) {
     // The radix sort moves the codes' high 32 bits as keys, with their low 31
-    // bits and the input index as one 64-bit value: three passes of 12 bytes
-    // per primitive instead of six. Codes that share their high half (a few,
+    // bits and the input index as one 64-bit value: four passes of 12 bytes
+    // per primitive instead of eight. Codes that share their high half (a few,
     // unless the scene is mostly one tiny cluster) are then ordered by that
     // value, low bits first, then index: the order of a stable sort of the
     // whole codes.

@@ -7,7 +7,11 @@ namespace aacbvh {
 
 namespace {
 
-constexpr unsigned kDigitBits = 11;
+/// Digits of 8 bits: each pass scatters into 256 places of two arrays. With
+/// 11 bits (2,048 places, three passes for 32-bit keys instead of four) the
+/// scatter stalled on its stores once the arrays outgrew the caches: the
+/// dragon's sort took 26 ms against 19 (docs/PERFORMANCE.md, row 215).
+constexpr unsigned kDigitBits = 8;
 constexpr size_t kBuckets = size_t(1) << kDigitBits;
 constexpr size_t kMinChunk = 1u << 14;
 
@@ -30,16 +34,17 @@ bool sort_pairs(Key *keys, Value *values, Key *keys_tmp, Value *values_tmp, size
 
     std::vector<uint32_t> counts(chunks * kBuckets);
     // With one chunk, a pass's counts are those of the whole array, in any
-    // order: every pass's counts from one read of the keys.
+    // order: every pass's counts (up to four) from one read of the keys.
     std::vector<uint32_t> pass_counts;
-    if (chunks == 1 && passes <= 3) {
-        pass_counts.assign(3 * kBuckets, 0u);
-        uint32_t *c0 = pass_counts.data(), *c1 = c0 + kBuckets, *c2 = c1 + kBuckets;
+    if (chunks == 1 && passes <= 4) {
+        pass_counts.assign(4 * kBuckets, 0u);
+        uint32_t *c0 = pass_counts.data(), *c1 = c0 + kBuckets, *c2 = c1 + kBuckets, *c3 = c2 + kBuckets;
         for (size_t i = 0; i < n; ++i) {
             const Key k = keys[i];
             ++c0[k & (kBuckets - 1)];
             ++c1[(k >> kDigitBits) & (kBuckets - 1)];
             ++c2[(k >> (2 * kDigitBits)) & (kBuckets - 1)];
+            ++c3[(k >> (3 * kDigitBits)) & (kBuckets - 1)];
         }
     }
     for (unsigned p = 0; p < passes; ++p) {
