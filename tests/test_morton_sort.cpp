@@ -223,6 +223,60 @@ void test_sort_by_high_halves(void **) {
     }
 }
 
+/// Both radix_sort_pairs() forms on arrays against std::stable_sort by the
+/// keys (all below 2^key_bits): key widths of one to five digits and beyond
+/// (the counts of every pass from one read, then a read a pass), few
+/// distinct keys (stability decides), keys that agree on whole digits,
+/// sizes that give one chunk and several, one thread and three.
+void test_radix_sort_pairs(void **) {
+    std::mt19937_64 rng(5);
+    for (size_t n : {size_t(0), size_t(1), size_t(2), size_t(1000), size_t(70000)}) {
+        for (unsigned key_bits : {5u, 8u, 9u, 24u, 32u, 40u, 64u}) {
+            for (int pattern = 0; pattern < 2; ++pattern) {
+                for (unsigned threads : {1u, 3u}) {
+                    aacbvh::Scheduler scheduler(threads);
+                    const uint64_t mask = key_bits == 64 ? ~uint64_t(0) : (uint64_t(1) << key_bits) - 1;
+                    aacbvh::Array<uint64_t> keys(n);
+                    aacbvh::Array<uint32_t> values(n);
+                    for (size_t i = 0; i < n; ++i) {
+                        keys[i] = (pattern == 0 ? rng() : rng() % 7 << (key_bits > 3 ? key_bits - 3 : 0)) & mask;
+                        values[i] = uint32_t(i);
+                    }
+                    std::vector<uint32_t> want(values.begin(), values.end());
+                    std::stable_sort(want.begin(), want.end(),
+                                     [&](uint32_t a, uint32_t b) { return keys[a] < keys[b]; });
+                    // The 32-bit form on the low halves (at most 32 key bits).
+                    const unsigned bits32 = std::min(key_bits, 32u);
+                    const uint64_t mask32 = bits32 == 32 ? 0xFFFFFFFFull : (uint64_t(1) << bits32) - 1;
+                    aacbvh::Array<uint32_t> keys32(n);
+                    aacbvh::Array<uint64_t> values64(n);
+                    for (size_t i = 0; i < n; ++i) {
+                        keys32[i] = uint32_t(keys[i] & mask32);
+                        values64[i] = uint64_t(i) << 32 | 0xABCDu;
+                    }
+                    std::vector<uint32_t> want32(n);
+                    for (size_t i = 0; i < n; ++i) want32[i] = uint32_t(i);
+                    std::stable_sort(want32.begin(), want32.end(), [&](uint32_t a, uint32_t b) {
+                        return keys32[a] < keys32[b];
+                    });
+                    const aacbvh::Array<uint64_t> original = keys;
+                    const aacbvh::Array<uint32_t> original32 = keys32;
+                    aacbvh::radix_sort_pairs(keys, values, key_bits, scheduler);
+                    aacbvh::radix_sort_pairs(keys32, values64, bits32, scheduler);
+                    for (size_t i = 0; i < n; ++i) {
+                        if (values[i] != want[i] || keys[i] != original[want[i]])
+                            fail_msg("64-bit keys, %zu pairs, %u bits, pattern %d, %u threads: entry %zu is %u, "
+                                     "expected %u", n, key_bits, pattern, threads, i, values[i], want[i]);
+                        if (values64[i] != (uint64_t(want32[i]) << 32 | 0xABCDu) || keys32[i] != original32[want32[i]])
+                            fail_msg("32-bit keys, %zu pairs, %u bits, pattern %d, %u threads: entry %zu wrong", n,
+                                     bits32, pattern, threads, i);
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// Every code equal: the input order.
 void test_all_equal(void **) {
     std::vector<Box> boxes(5000, point_box(3.0f, 3.0f, 3.0f));
@@ -240,6 +294,7 @@ int main() {
         cmocka_unit_test(test_all_equal),
         cmocka_unit_test(test_many_long_runs),
         cmocka_unit_test(test_sort_by_high_halves),
+        cmocka_unit_test(test_radix_sort_pairs),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }

@@ -11,8 +11,9 @@
 
 namespace aacbvh {
 
-/// Sorts keys ascending, moving values along. Only the low `key_bits` bits of
-/// the keys are looked at; digits on which every key agrees are skipped. Runs
+/// Sorts keys ascending, moving values along. The keys must be below
+/// 2^key_bits: only the digits that hold those bits are sorted on, and
+/// digits on which every key agrees are skipped. Runs
 /// on the scheduler's threads; the result does not depend on their number.
 void radix_sort_pairs(Array<uint64_t> &keys, Array<uint32_t> &values, unsigned key_bits, Scheduler &scheduler);
 /// The same for 32-bit keys with 64-bit values (build/morton.cpp sorts the
