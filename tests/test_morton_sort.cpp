@@ -22,6 +22,7 @@ extern "C" {
 
 #include "build/morton.h"
 #include "build/radix_sort.h"
+#include "build/radix_split.h"
 #include "box_input.h"
 
 namespace {
@@ -59,6 +60,21 @@ void check_sorted(const std::vector<Box> &boxes, unsigned threads) {
                          boxes.size(), threads, work ? "room" : "own", i, order[i], (unsigned long long)codes[i],
                          want[i], (unsigned long long)code[want[i]]);
         }
+        // The order and the neighbours' common prefix lengths alone.
+        aacbvh::Array<uint32_t> order2;
+        std::vector<uint8_t> prefix(boxes.size() + 1, 0xEE);
+        aacbvh::sort_by_morton_prefixes(in, scheduler, order2, prefix.data(), work);
+        assert_int_equal(order2.size(), boxes.size());
+        for (size_t i = 0; i < boxes.size(); ++i) {
+            if (order2[i] != want[i])
+                fail_msg("%zu boxes, %u threads: prefix sort's entry %zu is %u, expected %u", boxes.size(), threads, i,
+                         order2[i], want[i]);
+            const uint8_t expected = i + 1 < boxes.size() ? aacbvh::common_prefix(code[want[i]], code[want[i + 1]]) : 0xEE;
+            if (prefix[i] != expected)
+                fail_msg("%zu boxes, %u threads: prefix %zu is %u, expected %u", boxes.size(), threads, i, prefix[i],
+                         expected);
+        }
+        assert_int_equal(prefix[boxes.size()], 0xEE); // nothing written past the last pair
     }
 }
 

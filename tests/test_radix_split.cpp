@@ -4,7 +4,8 @@
 // before it kept only prefix lengths), and the first minimum by a plain
 // loop. Random codes with long runs of equal ones, ranges of every length
 // and position (the SSE2 search's tails and unaligned starts), minima at the
-// ends, all-equal ranges, and the prefix lengths at one and three threads.
+// ends, all-equal ranges. (The prefix lengths come from the Morton sort,
+// tests/test_morton_sort.cpp.)
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -83,12 +84,11 @@ void test_first_minimum(void **) {
 
 void test_splits_match_codes(void **) {
     std::mt19937_64 rng(11);
-    aacbvh::Scheduler one(1);
     for (int round = 0; round < 30; ++round) {
         const size_t n = 2 + rng() % 3000;
         const std::vector<uint64_t> codes = make_codes(rng, n);
         std::vector<uint8_t> prefix(n - 1 + aacbvh::kPrefixPadding, 0);
-        aacbvh::common_prefixes(codes.data(), n, prefix.data(), one);
+        for (size_t i = 0; i + 1 < n; ++i) prefix[i] = aacbvh::common_prefix(codes[i], codes[i + 1]);
         for (size_t i = 0; i + 1 < n; ++i) {
             const uint64_t x = codes[i] ^ codes[i + 1];
             assert_int_equal(prefix[i], x == 0 ? 64 : __builtin_clzll(x));
@@ -107,28 +107,12 @@ void test_splits_match_codes(void **) {
     }
 }
 
-void test_prefixes_any_thread_count(void **) {
-    std::mt19937_64 rng(3);
-    const size_t n = 300000; // several chunks of the parallel loop
-    const std::vector<uint64_t> codes = make_codes(rng, n);
-    aacbvh::Scheduler one(1), three(3);
-    std::vector<uint8_t> a(n - 1, 0), b(n - 1, 0xAB);
-    aacbvh::common_prefixes(codes.data(), n, a.data(), one);
-    aacbvh::common_prefixes(codes.data(), n, b.data(), three);
-    assert_true(a == b);
-    // Fewer than two codes: nothing written.
-    uint8_t untouched = 0xCD;
-    aacbvh::common_prefixes(codes.data(), 1, &untouched, one);
-    assert_int_equal(untouched, 0xCD);
-}
-
 } // namespace
 
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_first_minimum),
         cmocka_unit_test(test_splits_match_codes),
-        cmocka_unit_test(test_prefixes_any_thread_count),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }

@@ -5,27 +5,34 @@
 #include <vector>
 
 #include "build/radix_sort.h"
+#include "build/radix_split.h"
 
 namespace aacbvh {
 
-void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<uint64_t> &codes,
-                         Array<uint32_t> &order, uint64_t *room) {
+namespace {
+
+constexpr unsigned kLowBits = 31;
+
+/// The sorted codes where sort_by_morton_code()'s work leaves them: code i is
+/// high[i] << kLowBits | low_index[i] >> 32, its input entry uint32_t(low_index[i]).
+struct SortedCodes {
+    const uint32_t *high;
+    const uint64_t *low_index;
+    uint64_t code(size_t i) const { return uint64_t(high[i]) << kLowBits | low_index[i] >> 32; }
+};
+
+/// The sort itself, in work[0, kMortonSortWords n).
+SortedCodes sort_codes(const BuildInput &input, Scheduler &scheduler, uint64_t *room) {
     // The radix sort moves the codes' high 32 bits as keys, with their low 31
     // bits and the input index as one 64-bit value: four passes of 12 bytes
     // per primitive instead of eight. Codes that share their high half (a few,
     // unless the scene is mostly one tiny cluster) are then ordered by that
     // value, low bits first, then index: the order of a stable sort of the
     // whole codes.
-    constexpr unsigned kLowBits = 31;
     const size_t n = input.size();
     // The work, 24 bytes a primitive: values, spare values, keys, spare
     // keys. In the caller's room it costs no memory of its own (AAC's build
     // peak was this sort's, 76 bytes a triangle; docs/PERFORMANCE.md, row 214).
-    Array<uint64_t> own;
-    if (room == nullptr) {
-        own.resize(kMortonSortWords * n);
-        room = own.data();
-    }
     uint64_t *low_index = room, *low_spare = room + n;
     uint32_t *high = reinterpret_cast<uint32_t *>(room + 2 * n), *high_spare = high + n;
     const MortonQuantizer quantizer(input.centroid_bounds);
@@ -73,13 +80,53 @@ void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<ui
             });
         });
     }
+    return SortedCodes{high, low_index};
+}
+
+} // namespace
+
+void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<uint64_t> &codes,
+                         Array<uint32_t> &order, uint64_t *room) {
+    const size_t n = input.size();
+    Array<uint64_t> own;
+    if (room == nullptr) {
+        own.resize(kMortonSortWords * n);
+        room = own.data();
+    }
+    const SortedCodes sorted = sort_codes(input, scheduler, room);
     codes.resize(n);
     order.resize(n);
     scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i) {
-            const uint64_t v = low_index[i];
-            codes[i] = uint64_t(high[i]) << kLowBits | v >> 32;
-            order[i] = uint32_t(v);
+            codes[i] = sorted.code(i);
+            order[i] = uint32_t(sorted.low_index[i]);
+        }
+    });
+}
+
+void sort_by_morton_prefixes(const BuildInput &input, Scheduler &scheduler, Array<uint32_t> &order, uint8_t *prefix,
+                             uint64_t *room) {
+    const size_t n = input.size();
+    Array<uint64_t> own;
+    if (room == nullptr) {
+        own.resize(kMortonSortWords * n);
+        room = own.data();
+    }
+    const SortedCodes sorted = sort_codes(input, scheduler, room);
+    order.resize(n);
+    scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
+        // Local copies: a byte store may alias the closure, whose fields
+        // would then be read again for every byte.
+        const SortedCodes codes = sorted;
+        uint8_t *const out = prefix;
+        uint32_t *const ids = order.data();
+        uint64_t next = codes.code(b);
+        for (size_t i = b; i < e; ++i) {
+            const uint64_t code = next;
+            ids[i] = uint32_t(codes.low_index[i]);
+            if (i + 1 == n) break;
+            next = codes.code(i + 1);
+            out[i] = common_prefix(code, next);
         }
     });
 }

@@ -127,6 +127,14 @@ private:
 constexpr size_t kMortonSortWords = 3;
 void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<uint64_t> &codes,
                          Array<uint32_t> &order, uint64_t *room = nullptr);
+/// The same for callers that need only the order and the common prefix
+/// lengths of neighbouring codes (AAC's splits, build/radix_split.h):
+/// prefix[i] = common_prefix(code i, code i + 1) for i + 1 < input.size(),
+/// written from the sort's work without an array of the codes (8 bytes a
+/// primitive of fresh memory and a pass over them; docs/PERFORMANCE.md,
+/// row 216).
+void sort_by_morton_prefixes(const BuildInput &input, Scheduler &scheduler, Array<uint32_t> &order, uint8_t *prefix,
+                             uint64_t *room = nullptr);
 
 /// Morton codes of `count` boxes (`box_at(i)`) on a grid over their own
 /// centroids, into `codes[0, count)`, and into `rank` the positions in the

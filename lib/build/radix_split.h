@@ -28,10 +28,6 @@ inline uint8_t common_prefix(uint64_t a, uint64_t b) {
 /// first_minimum() search: they read 16 bytes at a time.
 constexpr size_t kPrefixPadding = 16;
 
-/// prefix[i] = common_prefix(codes[i], codes[i + 1]) for i < count - 1
-/// (nothing for count < 2), on the scheduler's threads for long arrays.
-void common_prefixes(const uint64_t *codes, size_t count, uint8_t *prefix, Scheduler &scheduler);
-
 /// Where the sorted range [b, e) of the codes behind `prefix` splits (e - b >= 2).
 struct RadixSplit {
     uint32_t at;  ///< first index of the right part, in (b, e)

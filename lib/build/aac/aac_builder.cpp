@@ -299,19 +299,17 @@ private:
 void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &rule, BuildContext &ctx,
                BinaryTree &out, SubtreeChoices &choices) {
     const uint32_t n = uint32_t(input.size());
-    Array<uint64_t> codes;
     Array<uint32_t> order;
-    // The sort works in the room the input keeps for the tree's inner boxes
-    // (InputRoom::Tree: 24 bytes a primitive, as many as the sort needs).
+    // The splits need only the prefix lengths: one byte a primitive instead
+    // of eight through the rest of the build (docs/PERFORMANCE.md, row 175),
+    // made by the sort without the codes (row 216). The sort works in the
+    // room the input keeps for the tree's inner boxes (InputRoom::Tree: 24
+    // bytes a primitive, as many as the sort needs; row 214).
+    Array<uint8_t> prefix(n + kPrefixPadding, 0);
     static_assert(kMortonSortWords * sizeof(uint64_t) <= sizeof(Box));
     const bool roomy = input.box_offset >= n && reinterpret_cast<uintptr_t>(input.boxes.data()) % alignof(uint64_t) == 0;
     uint64_t *room = roomy ? reinterpret_cast<uint64_t *>(input.boxes.data()) : nullptr;
-    sort_by_morton_code(input, ctx.scheduler(), codes, order, room);
-    // The splits need only the prefix lengths: one byte a primitive instead
-    // of eight through the rest of the build (docs/PERFORMANCE.md, row 175).
-    Array<uint8_t> prefix(n + kPrefixPadding, 0);
-    common_prefixes(codes.data(), n, prefix.data(), ctx.scheduler());
-    Array<uint64_t>().swap(codes);
+    sort_by_morton_prefixes(input, ctx.scheduler(), order, prefix.data(), room);
     ctx.report(0.3);
 
     // The leaves in Morton order. With room in the input's array
