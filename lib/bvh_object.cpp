@@ -190,7 +190,7 @@ void BvhObject::build() {
             if (params.optimize_passes > 0) optimize_tree(tree, rule, choices, params.optimize_passes, ctx, 0.8, 0.9);
             const ScratchArena::Pause handle_arrays;
             if (straight) {
-                make_compact_layouts(tree, rule, choices, ctx, result, layouts);
+                make_compact_layouts(tree, rule, choices, result, layouts);
                 made = true;
             } else {
                 emit_bvh(tree, rule, choices, ctx, result);
@@ -241,17 +241,21 @@ bool BvhObject::straight_to_compact(size_t primitives) const {
            params.max_leaf_size <= CompactTopology::kMaxLeafCount && primitives < (size_t(1) << 31);
 }
 
-void BvhObject::make_compact_layouts(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices,
-                                     BuildContext &ctx, Bvh &result, Layouts &out) const {
+void BvhObject::make_compact_layouts(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, Bvh &result,
+                                     Layouts &out) const {
     Array<uint8_t> shape;
-    emit_shape(tree, rule, choices, ctx, shape, result.prim_ids);
+    prepare_shape(tree, rule, choices, shape, result.prim_ids);
     const ChosenTree view = chosen_view(tree, choices);
-    Array<uint32_t>().swap(tree.prim_ids); // in result.prim_ids now, in leaf order (the view holds the count)
+    // The collapse writes the shape and the primitive order as it walks
+    // (EmittedOrder); the topology takes the shape's array first (moved, so
+    // the bytes stay where the collapse writes them).
+    const EmittedOrder order{shape.data(), result.prim_ids.data(), tree.prim_ids.data()};
     if (!out.topology.adopt(shape, view)) throw Error(AACBVH_ERROR_INTERNAL, "the tree's shape was not adopted");
     out.wide8.build(
-        view, geometry_, result.prim_ids.data(), scheduler_,
+        view, geometry_, order, scheduler_,
         [&] {
             Array<uint32_t>().swap(tree.children);
+            Array<uint32_t>().swap(tree.prim_ids); // in result.prim_ids now, in leaf order
             SubtreeChoices().swap(choices);
         },
         [&] { Array<Box>().swap(tree.boxes); });

@@ -133,7 +133,7 @@ private:
     bool straight_to_compact(size_t primitives) const;
     /// That: result gets the primitive indices only (no nodes); the tree and
     /// the choices are freed as soon as they are read no more.
-    void make_compact_layouts(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, BuildContext &ctx,
+    void make_compact_layouts(BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices,
                               Bvh &result, Layouts &out) const;
     void install(Layouts &layouts) noexcept;
     /// Into `out`: the binary nodes from the kept shape, with boxes from the

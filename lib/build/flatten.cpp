@@ -46,15 +46,6 @@ struct NodeSink {
     }
 };
 
-/// Writes the emitted layout's shape only (bvh/compact_topology.h): a
-/// leaf's primitive count (at most CompactTopology::kMaxLeafCount) or 0.
-struct ShapeSink {
-    static constexpr bool kReadsBoxes = false;
-    uint8_t *shape;
-    void inner(uint32_t pos, uint32_t, uint32_t) const { shape[pos] = 0; }
-    void leaf(uint32_t pos, uint32_t, uint32_t, uint32_t count) const { shape[pos] = uint8_t(count); }
-};
-
 /// Lays out one sub-tree. A node at `pos` whose children pair starts at
 /// `below` puts its left child's descendants at below + 2 and its right
 /// child's after them, so positions follow from the leaf counts alone and
@@ -204,8 +195,8 @@ double emit_bvh(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices 
     return normalised_cost(tree, rule, root);
 }
 
-double emit_shape(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, BuildContext &ctx,
-                  Array<uint8_t> &shape, Array<uint32_t> &prim_ids) {
+double prepare_shape(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, Array<uint8_t> &shape,
+                     Array<uint32_t> &prim_ids) {
     const uint32_t n = tree.leaf_count();
     shape.clear();
     prim_ids.clear();
@@ -214,8 +205,6 @@ double emit_shape(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoice
     choices.release_costs();
     shape.resize(2 * size_t(root.leaves) - 1);
     prim_ids.resize(n);
-    const ShapeSink sink{shape.data()};
-    Emitter<ShapeSink>(tree, choices, ctx, sink, prim_ids.data()).emit(tree.root, 0, 1, 0, 0);
     return normalised_cost(tree, rule, root);
 }
 

@@ -132,7 +132,7 @@ private:
 
 /// Choices of a tree's inner nodes, indexed by id - leaf_count, as arrays:
 /// the costs serve only while choices are made, so emit_bvh() and
-/// emit_shape() release them before they allocate the finished tree (4 bytes
+/// prepare_shape() release them before they allocate the finished tree (4 bytes
 /// per primitive off the build's peak, docs/PERFORMANCE.md row 123); the
 /// counts, with the packet-leaf choices of small subtrees inside
 /// (SubtreeCounts, bvh/chosen_tree.h; row 212), are what the layout reads.
@@ -180,12 +180,14 @@ void choose_subtrees(const BinaryTree &tree, const FlattenRule &rule, BuildConte
 /// Releases the choices' costs first (SubtreeChoices::release_costs()).
 double emit_bvh(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, BuildContext &ctx,
                 Bvh &out);
-/// emit_bvh() without the nodes: the emitted layout's shape (one byte a
-/// node: a leaf's primitive count, 0 for an inner node; every leaf must hold
-/// at most 255 primitives) and its primitive indices, for the default layout
-/// (bvh/chosen_tree.h). Returns the same cost.
-double emit_shape(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, BuildContext &ctx,
-                  Array<uint8_t> &shape, Array<uint32_t> &prim_ids);
+/// emit_bvh() without the nodes and without the walk: `shape` sized for the
+/// emitted layout's shape (one byte a node: a leaf's primitive count, 0 for
+/// an inner node; every leaf must hold at most 255 primitives) and
+/// `prim_ids` for its primitive indices, which the default layout's collapse
+/// fills as it walks the tree (EmittedOrder, bvh/chosen_tree.h). Returns the
+/// same cost.
+double prepare_shape(const BinaryTree &tree, const FlattenRule &rule, SubtreeChoices &choices, Array<uint8_t> &shape,
+                     Array<uint32_t> &prim_ids);
 /// The tree and its choices as the layouts read them (both must outlive it).
 ChosenTree chosen_view(const BinaryTree &tree, const SubtreeChoices &choices);
 

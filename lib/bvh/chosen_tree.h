@@ -85,10 +85,72 @@ struct ChosenTree {
     bool is_packet_leaf(uint32_t id) const { return id < n || counts[id - n].packet_leaf(); }
 };
 
-/// A node with its first leaf slot in the emitted layout.
+/// A node with its place in the emitted layout: its first leaf slot, its
+/// position and, for an inner node of the emitted layout, the position of
+/// its children's pair. A node's children follow from its own: the left at
+/// (below, below + 2), the right at (below + 1, below + 2 leaves(left)), the
+/// right's slot after the left's primitives (a subtree of L leaves uses
+/// 2 (L - 1) positions below its root).
 struct Place {
     uint32_t id;
     uint32_t slot;
+    uint32_t pos;
+    uint32_t below;
 };
+
+/// The emitted layout's shape (one byte a node: a leaf's primitive count, 0
+/// for an inner node) and primitive order, as the default layout's collapse
+/// writes them while it walks a builder's tree (Wide8Bvh::build(), which
+/// meets every inner node above the packet leaves once, and every packet
+/// leaf once), instead of a walk of its own before it (docs/PERFORMANCE.md,
+/// row 217). `leaf_prims[id]` is the primitive of the builder's leaf id.
+struct EmittedOrder {
+    uint8_t *shape;
+    uint32_t *prim_ids;
+    const uint32_t *leaf_prims;
+};
+
+/// The inner node at `p` into `out`: its shape byte. Returns its children's places.
+inline void emit_inner(const ChosenTree &tree, const EmittedOrder &out, const Place &p, Place &l, Place &r) {
+    out.shape[p.pos] = 0;
+    const uint32_t left = tree.left(p.id), right = tree.right(p.id);
+    l = Place{left, p.slot, p.below, p.below + 2};
+    r = Place{right, p.slot + tree.prims(left), p.below + 1, p.below + 2 * tree.leaves(left)};
+}
+
+/// The subtree at `p`, a packet leaf, into `out`: its emitted nodes' shape
+/// bytes and its leaves' primitives, depth first, left first. A packet leaf
+/// holds at most SubtreeCounts::kSmall primitives or is one emitted leaf, of
+/// at most kMaxEmittedLeaf primitives (the shape's byte).
+inline void emit_packet_leaf(const ChosenTree &tree, const EmittedOrder &out, const Place &p) {
+    constexpr uint32_t kMaxEmittedLeaf = 0xFF;
+    Place places[SubtreeCounts::kSmall + 1];
+    uint32_t ids[kMaxEmittedLeaf + 1];
+    int places_top = 0;
+    places[places_top++] = p;
+    while (places_top != 0) {
+        Place at = places[--places_top];
+        while (!tree.is_leaf(at.id)) { // emitted inner nodes: down the left, the right waits
+            Place l, r;
+            emit_inner(tree, out, at, l, r);
+            places[places_top++] = r;
+            at = l;
+        }
+        const uint32_t count = tree.prims(at.id);
+        out.shape[at.pos] = uint8_t(count);
+        uint32_t slot = at.slot;
+        int ids_top = 0;
+        ids[ids_top++] = at.id;
+        while (ids_top != 0) { // the emitted leaf's binary leaves, left to right
+            const uint32_t id = ids[--ids_top];
+            if (id < tree.n) {
+                out.prim_ids[slot++] = out.leaf_prims[id];
+            } else {
+                ids[ids_top++] = tree.right(id);
+                ids[ids_top++] = tree.left(id);
+            }
+        }
+    }
+}
 
 } // namespace aacbvh

@@ -133,6 +133,7 @@ struct EmittedSource : EmittedShape {
 struct ChosenSource {
     using Handle = Place;
     const ChosenTree &tree;
+    EmittedOrder order; ///< written as the collapse meets the nodes
 
     bool is_leaf(Place p) const { return tree.is_packet_leaf(p.id); }
     /// The builder's ids are in merge order, so a node's children lie
@@ -143,14 +144,15 @@ struct ChosenSource {
     }
     float extent_scale; ///< extent_scale_of() the root's box, as EmittedShape's
     float half_area(Place p) const { return scaled_half_area(tree.boxes[p.id], extent_scale); }
-    void children(Place p, Place &l, Place &r) const {
-        l = Place{tree.left(p.id), p.slot};
-        r = Place{tree.right(p.id), p.slot + tree.prims(l.id)};
-    }
+    /// Called once for each node the collapse opens: the emitted layout's
+    /// inner nodes above the packet leaves.
+    void children(Place p, Place &l, Place &r) const { emit_inner(tree, order, p, l, r); }
     uint32_t prims(Place p) const { return tree.prims(p.id); }
+    /// Called once for each packet leaf.
     void leaf_range(Place p, uint32_t &first, uint32_t &count) const {
         first = p.slot;
         count = tree.prims(p.id);
+        emit_packet_leaf(tree, order, p);
     }
     uint32_t source(Place p) const { return p.id; }
     const Box &box(uint32_t source) const { return tree.boxes[source]; }
@@ -374,11 +376,11 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     build_from(source, 0u, triangles, bvh.prim_ids.data(), scheduler, nullptr, [&] { sweep.reset(); });
 }
 
-void Wide8Bvh::build(const ChosenTree &tree, const Geometry &triangles, const uint32_t *prim_ids,
+void Wide8Bvh::build(const ChosenTree &tree, const Geometry &triangles, const EmittedOrder &order,
                      Scheduler &scheduler, const std::function<void()> &shape_done,
                      const std::function<void()> &tree_done) {
-    const ChosenSource source{tree, extent_scale_of(tree.boxes[tree.root])};
-    build_from(source, Place{tree.root, 0}, &triangles, prim_ids, scheduler, shape_done, tree_done);
+    const ChosenSource source{tree, order, extent_scale_of(tree.boxes[tree.root])};
+    build_from(source, Place{tree.root, 0, 0, 1}, &triangles, order.prim_ids, scheduler, shape_done, tree_done);
     // Its sources are the builder's ids, which mean nothing once the build
     // is over: the handle keeps the binary tree's shape instead.
     release_sources();

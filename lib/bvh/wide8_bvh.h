@@ -98,13 +98,15 @@ public:
     void build(const Bvh &bvh, const Geometry *triangles, Scheduler &scheduler);
     /// The same tree with packets, collapsed straight from a builder's tree
     /// (bvh/chosen_tree.h) instead of its emitted binary nodes (which need
-    /// not exist), `prim_ids` its emitted primitive order (emit_shape(),
-    /// build/flatten.h). Calls `shape_done` once the tree's children and
-    /// counts are read no more (after the collapse, before the wide nodes are
-    /// allocated) and `tree_done` once its boxes are read no more (before the
-    /// packets are made). Keeps no sources (refit from the packets). Throws
-    /// std::bad_alloc, keeping the previous tree.
-    void build(const ChosenTree &tree, const Geometry &triangles, const uint32_t *prim_ids, Scheduler &scheduler,
+    /// not exist). The collapse writes the emitted layout's shape and
+    /// primitive order into `order` (sized by prepare_shape(),
+    /// build/flatten.h) as it goes; the packets are filled from that order.
+    /// Calls `shape_done` once the tree's children, counts and leaf
+    /// primitives are read no more (after the collapse, before the wide nodes
+    /// are allocated) and `tree_done` once its boxes are read no more (before
+    /// the packets are made). Keeps no sources (refit from the packets).
+    /// Throws std::bad_alloc, keeping the previous tree.
+    void build(const ChosenTree &tree, const Geometry &triangles, const EmittedOrder &order, Scheduler &scheduler,
                const std::function<void()> &shape_done, const std::function<void()> &tree_done);
     /// After a refit of `bvh`: copies its boxes into the wide nodes and, with
     /// packets, the triangles' new vertices from `geometry`. No allocation.
