@@ -6,17 +6,6 @@
 
 namespace aacbvh {
 
-void common_prefixes(const uint64_t *codes, size_t count, uint8_t *prefix, Scheduler &scheduler) {
-    if (count < 2) return;
-    scheduler.parallel_for(0, count - 1, size_t(1) << 16, [&](size_t b, size_t e) {
-        // Local pointers: a byte store may alias the closure, whose fields
-        // would then be read again for every byte.
-        const uint64_t *const c = codes;
-        uint8_t *const out = prefix;
-        for (size_t i = b; i < e; ++i) out[i] = common_prefix(c[i], c[i + 1]);
-    });
-}
-
 #if defined(__SSE2__)
 namespace {
 

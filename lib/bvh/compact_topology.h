@@ -63,7 +63,8 @@ public:
     /// Throws std::bad_alloc, leaving this as it was.
     bool encode(const Bvh &bvh, Scheduler &scheduler);
 
-    /// Takes `shape` (emit_shape()'s, build/flatten.h) as the shape of the
+    /// Takes `shape` (prepare_shape()'s, build/flatten.h, which the 8-wide
+    /// collapse fills: EmittedOrder, bvh/chosen_tree.h) as the shape of the
     /// emitted layout of `tree`, which tells where the tasks' parts start.
     /// False, leaving both as they were, for an empty shape. Throws
     /// std::bad_alloc, leaving both as they were.
