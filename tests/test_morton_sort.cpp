@@ -242,20 +242,24 @@ void test_sort_by_high_halves(void **) {
 /// Both radix_sort_pairs() forms on arrays against std::stable_sort by the
 /// keys (all below 2^key_bits): key widths of one to five digits and beyond
 /// (the counts of every pass from one read, then a read a pass), few
-/// distinct keys (stability decides), keys that agree on whole digits,
+/// distinct keys (stability decides), keys that agree on whole digits (the
+/// top one included), sorts big enough to take the top digit first,
 /// sizes that give one chunk and several, one thread and three.
 void test_radix_sort_pairs(void **) {
     std::mt19937_64 rng(5);
     for (size_t n : {size_t(0), size_t(1), size_t(2), size_t(1000), size_t(70000)}) {
         for (unsigned key_bits : {5u, 8u, 9u, 24u, 32u, 40u, 64u}) {
-            for (int pattern = 0; pattern < 2; ++pattern) {
+            for (int pattern = 0; pattern < 3; ++pattern) { // random, few distinct, the top digit all 0
                 for (unsigned threads : {1u, 3u}) {
                     aacbvh::Scheduler scheduler(threads);
                     const uint64_t mask = key_bits == 64 ? ~uint64_t(0) : (uint64_t(1) << key_bits) - 1;
                     aacbvh::Array<uint64_t> keys(n);
                     aacbvh::Array<uint32_t> values(n);
                     for (size_t i = 0; i < n; ++i) {
-                        keys[i] = (pattern == 0 ? rng() : rng() % 7 << (key_bits > 3 ? key_bits - 3 : 0)) & mask;
+                        keys[i] = (pattern == 0   ? rng()
+                                   : pattern == 1 ? rng() % 7 << (key_bits > 3 ? key_bits - 3 : 0)
+                                                  : (rng() & mask) >> 8) &
+                                  mask;
                         values[i] = uint32_t(i);
                     }
                     std::vector<uint32_t> want(values.begin(), values.end());
