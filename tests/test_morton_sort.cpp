@@ -243,8 +243,8 @@ void test_sort_by_high_halves(void **) {
 /// keys (all below 2^key_bits): key widths of one to five digits and beyond
 /// (the counts of every pass from one read, then a read a pass), few
 /// distinct keys (stability decides), keys that agree on whole digits (the
-/// top one included), sorts big enough to take the top digit first,
-/// sizes that give one chunk and several, one thread and three.
+/// top one included), sizes that give one chunk and several, one thread
+/// and three.
 void test_radix_sort_pairs(void **) {
     std::mt19937_64 rng(5);
     for (size_t n : {size_t(0), size_t(1), size_t(2), size_t(1000), size_t(70000)}) {
