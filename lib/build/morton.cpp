@@ -21,8 +21,9 @@ struct SortedCodes {
     uint64_t code(size_t i) const { return uint64_t(high[i]) << kLowBits | low_index[i] >> 32; }
 };
 
-/// The sort itself, in work[0, kMortonSortWords n).
-SortedCodes sort_codes(const BuildInput &input, Scheduler &scheduler, uint64_t *room) {
+/// The sort itself, in room[0, kMortonSortWords n), or in `own` (sized
+/// here) without a room.
+SortedCodes sort_codes(const BuildInput &input, Scheduler &scheduler, uint64_t *room, Array<uint64_t> &own) {
     // The radix sort moves the codes' high 32 bits as keys, with their low 31
     // bits and the input index as one 64-bit value: four passes of 12 bytes
     // per primitive instead of eight. Codes that share their high half (a few,
@@ -33,6 +34,10 @@ SortedCodes sort_codes(const BuildInput &input, Scheduler &scheduler, uint64_t *
     // The work, 24 bytes a primitive: values, spare values, keys, spare
     // keys. In the caller's room it costs no memory of its own (AAC's build
     // peak was this sort's, 76 bytes a triangle; docs/PERFORMANCE.md, row 214).
+    if (room == nullptr) {
+        own.resize(kMortonSortWords * n);
+        room = own.data();
+    }
     uint64_t *low_index = room, *low_spare = room + n;
     uint32_t *high = reinterpret_cast<uint32_t *>(room + 2 * n), *high_spare = high + n;
     const MortonQuantizer quantizer(input.centroid_bounds);
@@ -89,11 +94,7 @@ void sort_by_morton_code(const BuildInput &input, Scheduler &scheduler, Array<ui
                          Array<uint32_t> &order, uint64_t *room) {
     const size_t n = input.size();
     Array<uint64_t> own;
-    if (room == nullptr) {
-        own.resize(kMortonSortWords * n);
-        room = own.data();
-    }
-    const SortedCodes sorted = sort_codes(input, scheduler, room);
+    const SortedCodes sorted = sort_codes(input, scheduler, room, own);
     codes.resize(n);
     order.resize(n);
     scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
@@ -108,11 +109,7 @@ void sort_by_morton_prefixes(const BuildInput &input, Scheduler &scheduler, Arra
                              uint64_t *room) {
     const size_t n = input.size();
     Array<uint64_t> own;
-    if (room == nullptr) {
-        own.resize(kMortonSortWords * n);
-        room = own.data();
-    }
-    const SortedCodes sorted = sort_codes(input, scheduler, room);
+    const SortedCodes sorted = sort_codes(input, scheduler, room, own);
     order.resize(n);
     scheduler.parallel_for(0, n, 1u << 14, [&](size_t b, size_t e) {
         // Local copies: a byte store may alias the closure, whose fields
