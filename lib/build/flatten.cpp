@@ -29,7 +29,6 @@ namespace {
 
 /// Writes the emitted layout's binary nodes.
 struct NodeSink {
-    static constexpr bool kReadsBoxes = true;
     Node *nodes;
     const Box *boxes;
     void inner(uint32_t pos, uint32_t id, uint32_t below) const {
@@ -105,15 +104,15 @@ private:
             // Down the left children; the right ones wait on the stack.
             while (leaves(it.id) != 1) {
                 const uint32_t l = children[2 * size_t(it.id - n)], r = children[2 * size_t(it.id - n) + 1];
-                // The right child's children, counts and (if the sink reads
-                // it) box, asked for ahead of its turn: it waits while the
-                // left subtree is laid out, and its reads are scattered
-                // (dragon AAC-Fast: the emit 37 -> 31.5 ms with warm memory,
-                // docs/PERFORMANCE.md rows 74 and 157).
+                // The right child's children, counts and box, asked for
+                // ahead of its turn: it waits while the left subtree is laid
+                // out, and its reads are scattered (dragon AAC-Fast: the emit
+                // 37 -> 31.5 ms with warm memory, docs/PERFORMANCE.md rows 74
+                // and 157).
                 if (r >= n) {
                     __builtin_prefetch(&children[2 * size_t(r - n)]);
                     __builtin_prefetch(&counts[r - n]);
-                    if (Sink::kReadsBoxes) __builtin_prefetch(&boxes[r]);
+                    __builtin_prefetch(&boxes[r]);
                 }
                 sink.inner(it.pos, it.id, it.below);
                 const uint32_t left_nodes = 2 * leaves(l) - 1;
