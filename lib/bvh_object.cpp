@@ -157,6 +157,9 @@ void BvhObject::build() {
     ScratchArena scratch;
     const ScratchArena::Scope scratch_scope(&scratch);
 
+    // Fresh pages cleared on every thread of the build (core/memory.h).
+    const ParallelPageMapper page_mapper(scheduler_);
+    const PageMapper::Scope page_mapping(scheduler_.thread_count() > 1 ? &page_mapper : nullptr);
     BuildContext ctx(scheduler_, progress_, progress_user_);
     ctx.report(0.0);
 
@@ -490,6 +493,9 @@ void BvhObject::optimize(uint32_t passes) {
     const KeptMemory kept(kept_blocks_, params.keep_build_memory);
     ScratchArena scratch; // as in build()
     const ScratchArena::Scope scratch_scope(&scratch);
+    // Fresh pages cleared on every thread of the build (core/memory.h).
+    const ParallelPageMapper page_mapper(scheduler_);
+    const PageMapper::Scope page_mapping(scheduler_.thread_count() > 1 ? &page_mapper : nullptr);
     BuildContext ctx(scheduler_, progress_, progress_user_);
     ctx.report(0.0);
     if (passes == 0 || bvh_.prim_ids.size() < 3) { // fewer than three primitives: one topology

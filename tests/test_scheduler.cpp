@@ -1,5 +1,6 @@
 // Unit tests of the work-stealing scheduler (lib/core/scheduler.h): fork/join,
-// parallel_for, parallel_reduce, concurrent callers, exceptions, lifetimes.
+// parallel_for, parallel_reduce, concurrent callers, exceptions, lifetimes,
+// and the page mapper that clears a build's fresh pages on its threads.
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -19,6 +20,9 @@ extern "C" {
 #include <stdexcept>
 #include <thread>
 #include <vector>
+
+#include <sys/mman.h>
+#include <unistd.h>
 
 #include "core/scheduler.h"
 
@@ -281,6 +285,83 @@ static void test_idle_then_work(void **) {
     }
 }
 
+namespace {
+
+/// A fresh mapping of `bytes` on a 2 MiB boundary, none of its pages touched;
+/// unmapped with its span.
+struct FreshRegion {
+    char *p = nullptr;
+    void *mapped = nullptr;
+    size_t span = 0;
+    explicit FreshRegion(size_t bytes) : span(bytes + aacbvh::kHugePageBytes) {
+        mapped = mmap(nullptr, span, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        assert_true(mapped != MAP_FAILED);
+        const uintptr_t a = (uintptr_t(mapped) + aacbvh::kHugePageBytes - 1) & ~uintptr_t(aacbvh::kHugePageBytes - 1);
+        p = reinterpret_cast<char *>(a);
+    }
+    ~FreshRegion() { munmap(mapped, span); }
+    /// Pages of [p, p + bytes) in memory.
+    size_t resident(size_t bytes) const {
+        const size_t page = size_t(sysconf(_SC_PAGESIZE));
+        std::vector<unsigned char> in((bytes + page - 1) / page);
+        assert_int_equal(mincore(p, bytes, in.data()), 0);
+        return size_t(std::count_if(in.begin(), in.end(), [](unsigned char c) { return (c & 1) != 0; }));
+    }
+};
+
+} // namespace
+
+static void test_parallel_page_mapper(void **) {
+    // The parallel mapper leaves every page of a block as mapped as one
+    // map_pages() call does (all of them where the kernel has
+    // MADV_POPULATE_WRITE): its pieces cover the block, the odd tail included.
+    const size_t sizes[] = {aacbvh::kHugePageBytes, 2 * aacbvh::kHugePageBytes + 4096, 9 * aacbvh::kHugePageBytes,
+                            23 * aacbvh::kHugePageBytes + 12288};
+    for (unsigned threads : kThreadCounts) {
+        Scheduler s(threads);
+        const aacbvh::ParallelPageMapper mapper(s);
+        for (size_t bytes : sizes) {
+            FreshRegion one(bytes), shared(bytes);
+            aacbvh::map_pages(one.p, bytes);
+            mapper.map(shared.p, bytes);
+            const size_t expected = one.resident(bytes);
+            assert_int_equal(shared.resident(bytes), expected);
+            // Fresh pages read as zero whoever mapped them.
+            for (size_t i = 0; i < bytes; i += 4096) assert_int_equal(shared.p[i], 0);
+            assert_int_equal(shared.p[bytes - 1], 0);
+        }
+    }
+}
+
+static void test_page_mapper_scope(void **) {
+    // A big block allocated with a mapper installed is mapped by it, once,
+    // whole; without one (and after the scope) by the allocating thread.
+    struct Counting final : aacbvh::PageMapper {
+        mutable std::vector<std::pair<char *, size_t>> calls;
+        void map(char *p, size_t bytes) const noexcept override {
+            calls.emplace_back(p, bytes);
+            aacbvh::map_pages(p, bytes);
+        }
+    } counting;
+    assert_null(aacbvh::PageMapper::current());
+    const size_t bytes = 3 * aacbvh::kHugePageBytes;
+    {
+        const aacbvh::PageMapper::Scope scope(&counting);
+        assert_ptr_equal(aacbvh::PageMapper::current(), &counting);
+        void *block = aacbvh::allocate_system_block(bytes);
+        assert_int_equal(counting.calls.size(), 1);
+        assert_ptr_equal(counting.calls[0].first, block);
+        assert_int_equal(counting.calls[0].second, bytes);
+        aacbvh::free_system_block(block, bytes);
+        // Another thread has no mapper of its own.
+        std::thread([] { assert_null(aacbvh::PageMapper::current()); }).join();
+    }
+    assert_null(aacbvh::PageMapper::current());
+    void *block = aacbvh::allocate_system_block(bytes);
+    assert_int_equal(counting.calls.size(), 1);
+    aacbvh::free_system_block(block, bytes);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_thread_count),
@@ -294,6 +375,8 @@ int main(void) {
         cmocka_unit_test(test_exceptions),
         cmocka_unit_test(test_nested_schedulers),
         cmocka_unit_test(test_idle_then_work),
+        cmocka_unit_test(test_parallel_page_mapper),
+        cmocka_unit_test(test_page_mapper_scope),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -19,6 +19,30 @@ bool take_injected_failure() noexcept {
 
 } // namespace testing
 
+namespace {
+thread_local const PageMapper *tl_page_mapper = nullptr;
+} // namespace
+
+const PageMapper *PageMapper::current() noexcept { return tl_page_mapper; }
+
+PageMapper::Scope::Scope(const PageMapper *mapper) noexcept : previous_(tl_page_mapper) { tl_page_mapper = mapper; }
+
+PageMapper::Scope::~Scope() { tl_page_mapper = previous_; }
+
+void map_pages(void *p, size_t bytes) noexcept {
+#ifdef MADV_POPULATE_WRITE
+    // Every page of a build array is written soon, so map them all now, in
+    // one call, instead of one page fault each: on a virtual machine a fault
+    // costs microseconds beyond the page's clearing (docs/PERFORMANCE.md,
+    // change 86). Kernels before 5.14 refuse the advice; the pages then fault
+    // in as before.
+    madvise(p, bytes, MADV_POPULATE_WRITE);
+#else
+    (void)p;
+    (void)bytes;
+#endif
+}
+
 void *allocate_system_block(size_t rounded_bytes) {
     // Map one alignment unit more, then unmap the unaligned head and the tail.
     const size_t span = rounded_bytes + kHugePageBytes;
@@ -33,14 +57,10 @@ void *allocate_system_block(size_t rounded_bytes) {
 #ifdef MADV_HUGEPAGE
     madvise(p, rounded_bytes, MADV_HUGEPAGE); // advice only: failure is harmless
 #endif
-#ifdef MADV_POPULATE_WRITE
-    // Every page of a build array is written soon, so map them all now, in
-    // one call, instead of one page fault each: on a virtual machine a fault
-    // costs microseconds beyond the page's clearing (docs/PERFORMANCE.md,
-    // change 86). Kernels before 5.14 refuse the advice; the pages then fault
-    // in as before.
-    madvise(p, rounded_bytes, MADV_POPULATE_WRITE);
-#endif
+    if (const PageMapper *mapper = PageMapper::current())
+        mapper->map(static_cast<char *>(p), rounded_bytes);
+    else
+        map_pages(p, rounded_bytes);
     testing::count_system_block(int64_t(rounded_bytes));
     return p;
 }

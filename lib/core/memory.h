@@ -123,9 +123,42 @@ constexpr size_t round_to_block(size_t bytes) { return (bytes + kPageBytes - 1) 
 /// alignment in small blocks too; big blocks are page aligned anyway.
 inline bool over_aligned(size_t align) { return align > __STDCPP_DEFAULT_NEW_ALIGNMENT__; }
 
+/// Maps the pages of [p, p + bytes) at once (MADV_POPULATE_WRITE, where the
+/// kernel has it) instead of one page fault each. Advice: a failure is harmless.
+void map_pages(void *p, size_t bytes) noexcept;
+
+/// Who maps the pages of the big blocks a thread allocates: by default the
+/// thread itself, in one map_pages(); a build on several threads installs
+/// one that shares the work among them (ParallelPageMapper, core/scheduler.h),
+/// since clearing fresh pages is a sizeable part of a build
+/// (docs/PERFORMANCE.md, row 224).
+class PageMapper {
+public:
+    /// Maps the pages of [p, p + bytes), p on a 2 MiB boundary.
+    virtual void map(char *p, size_t bytes) const noexcept = 0;
+
+    /// The calling thread's, or nullptr.
+    static const PageMapper *current() noexcept;
+
+    /// Installs a mapper on the calling thread while it lives.
+    class Scope {
+    public:
+        explicit Scope(const PageMapper *mapper) noexcept;
+        ~Scope();
+        Scope(const Scope &) = delete;
+        Scope &operator=(const Scope &) = delete;
+
+    private:
+        const PageMapper *previous_;
+    };
+
+protected:
+    ~PageMapper() = default;
+};
+
 /// A big block straight from the system: `rounded_bytes` (a multiple of
 /// the page size) mapped at a 2 MiB boundary, advised for huge pages, its
-/// pages mapped at once (MADV_POPULATE_WRITE, where the kernel has it). Mapped exactly,
+/// pages mapped at once (map_pages(), or the thread's PageMapper). Mapped exactly,
 /// so the handle's stats can count every byte of it: aligned_alloc() would
 /// map up to 2 MiB more per block for the alignment, unseen by the stats.
 /// Throws std::bad_alloc.

@@ -3,6 +3,7 @@
 // Weak Memory Models" (PPoPP 2013), and an event count for sleeping.
 #include "core/scheduler.h"
 
+#include <algorithm>
 #include <condition_variable>
 #include <cstdint>
 #include <mutex>
@@ -394,6 +395,25 @@ void Scheduler::fork_join_impl(detail::Task &b, void (*a)(void *), void *actx) {
     }
     if (a_error) std::rethrow_exception(a_error);
     if (b.error) std::rethrow_exception(b.error);
+}
+
+void ParallelPageMapper::map(char *p, size_t bytes) const noexcept {
+    // Two pieces a thread, each whole huge pages, for the balance.
+    const size_t threads = scheduler_.thread_count();
+    const size_t wanted = (bytes + 2 * threads - 1) / (2 * threads);
+    const size_t piece = (wanted + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
+    const size_t pieces = (bytes + piece - 1) / piece;
+    if (threads <= 1 || pieces < 2) {
+        map_pages(p, bytes);
+        return;
+    }
+    try {
+        scheduler_.parallel_for(0, pieces, 1, [&](size_t b, size_t e) {
+            for (size_t i = b; i < e; ++i) map_pages(p + i * piece, std::min(piece, bytes - i * piece));
+        });
+    } catch (...) {
+        // Mapping is advice: pages left unmapped fault in when written.
+    }
 }
 
 } // namespace aacbvh

@@ -146,4 +146,18 @@ private:
     std::unique_ptr<Pool> pool_;
 };
 
+/// A PageMapper (core/memory.h) that maps a big block's pages in pieces of
+/// whole huge pages on a scheduler's threads: a build installs one on its
+/// thread when it has more than one, so that the kernel clears its fresh
+/// pages on all of them. Blocks of fewer than two pieces are mapped by the
+/// allocating thread. The pages are the same whoever maps them.
+class ParallelPageMapper final : public PageMapper {
+public:
+    explicit ParallelPageMapper(Scheduler &scheduler) noexcept : scheduler_(scheduler) {}
+    void map(char *p, size_t bytes) const noexcept override;
+
+private:
+    Scheduler &scheduler_;
+};
+
 } // namespace aacbvh
