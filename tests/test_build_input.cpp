@@ -17,6 +17,7 @@ extern "C" {
 
 #include <cfloat>
 #include <cmath>
+#include <algorithm>
 #include <cstring>
 #include <random>
 #include <string>
@@ -180,6 +181,44 @@ void test_room_for_the_tree(void **) {
     assert_int_equal(input.box_offset, count);
 }
 
+/// The leaves gathered by a random order: with the input's indices when some
+/// triangles were left out, with the order alone when none were
+/// (identity_ids), both checked against the input entry by entry, also with
+/// the order in the leaves' own index array (as AAC gathers).
+void test_gather_leaves(void **) {
+    Soup soup;
+    for (uint32_t seed = 41; seed <= 44; ++seed) {
+        const bool invalid = seed % 2 == 0;
+        make_soup(soup, seed, 30000, 15000, 12, invalid ? 2 : 0, invalid ? 3 : 0, true);
+        for (unsigned threads : {1u, 3u}) {
+            aacbvh::Scheduler scheduler(threads);
+            aacbvh::BuildContext ctx(scheduler, nullptr, nullptr);
+            BuildInput input;
+            aacbvh::compute_build_input(soup.geometry, true, ctx, input, InputPath::Fastest);
+            assert_int_equal(input.identity_ids, !invalid);
+            assert_int_equal(input.invalid_count > 0, invalid);
+            if (invalid) assert_ptr_equal(aacbvh::input_prim_ids(input), input.prim_ids.data());
+            else assert_null(aacbvh::input_prim_ids(input));
+            const uint32_t n = uint32_t(input.size());
+            std::vector<uint32_t> order(n);
+            for (uint32_t i = 0; i < n; ++i) order[i] = i;
+            std::shuffle(order.begin(), order.end(), std::mt19937(seed));
+            for (const bool aliased : {false, true}) {
+                aacbvh::BinaryTree tree;
+                tree.boxes.resize(2 * size_t(n));
+                tree.prim_ids.resize(n);
+                if (aliased) std::copy(order.begin(), order.end(), tree.prim_ids.begin());
+                aacbvh::gather_leaves(input.boxes.data() + input.box_offset, aacbvh::input_prim_ids(input),
+                                      aliased ? tree.prim_ids.data() : order.data(), scheduler, tree);
+                for (uint32_t i = 0; i < n; ++i) {
+                    assert_int_equal(tree.prim_ids[i], input.prim_ids[order[i]]);
+                    assert_memory_equal(&tree.boxes[i], &input.box(order[i]), sizeof(aacbvh::Box));
+                }
+            }
+        }
+    }
+}
+
 void test_first_invalid_named(void **) {
     Soup soup;
     for (uint32_t seed = 21; seed <= 24; ++seed) {
@@ -200,6 +239,7 @@ int main() {
         cmocka_unit_test(test_valid_triangles),
         cmocka_unit_test(test_invalid_triangles_skipped),
         cmocka_unit_test(test_room_for_the_tree),
+        cmocka_unit_test(test_gather_leaves),
         cmocka_unit_test(test_first_invalid_named),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);

@@ -201,19 +201,34 @@ void compute_build_input(const Geometry &geometry, bool skip_invalid, BuildConte
     input.bounds = all.bounds;
     input.centroid_bounds = all.centroid_bounds;
     input.invalid_count = all.invalid;
+    input.identity_ids = all.invalid == 0; // entry i is primitive i unless some were squeezed out
 }
 
 void gather_leaves(const BuildInput &input, const uint32_t *order, Scheduler &scheduler, BinaryTree &out) {
-    gather_leaves(input.boxes.data() + input.box_offset, input.prim_ids.data(), order, scheduler, out);
+    gather_leaves(input.boxes.data() + input.box_offset, input_prim_ids(input), order, scheduler, out);
+}
+
+const uint32_t *input_prim_ids(const BuildInput &input) {
+    return input.identity_ids ? nullptr : input.prim_ids.data();
 }
 
 void gather_leaves(const Box *boxes, const uint32_t *prim_ids, const uint32_t *order, Scheduler &scheduler,
                    BinaryTree &out) {
     Box *const leaves = out.boxes.data();
     uint32_t *const leaf_prims = out.prim_ids.data();
+    // The sorted order scatters the reads: asked for kAhead places early.
+    constexpr size_t kAhead = 16;
+    if (prim_ids == nullptr) { // the identity: the order is the primitives
+        scheduler.parallel_for(0, out.leaf_count(), kGrain, [&](size_t b, size_t e) {
+            for (size_t i = b; i < e; ++i) {
+                if (i + kAhead < e) __builtin_prefetch(&boxes[order[i + kAhead]]);
+                leaves[i] = boxes[order[i]];
+                if (order != leaf_prims) leaf_prims[i] = order[i];
+            }
+        });
+        return;
+    }
     scheduler.parallel_for(0, out.leaf_count(), kGrain, [&](size_t b, size_t e) {
-        // The sorted order scatters the reads: asked for kAhead places early.
-        constexpr size_t kAhead = 16;
         for (size_t i = b; i < e; ++i) {
             if (i + kAhead < e) {
                 __builtin_prefetch(&boxes[order[i + kAhead]]);

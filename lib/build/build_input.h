@@ -24,6 +24,9 @@ struct BuildInput {
     Box bounds = Box::empty();       ///< union of all boxes
     Box centroid_bounds = Box::empty(); ///< bounds of the boxes' centres
     uint64_t invalid_count = 0;      ///< primitives left out as invalid
+    /// prim_ids[i] == i for every entry (compute_build_input() with no
+    /// primitive left out): gather_leaves() then reads the order alone.
+    bool identity_ids = false;
 
     size_t size() const { return prim_ids.size(); }
     const Box &box(size_t i) const { return boxes[box_offset + i]; }
@@ -61,8 +64,13 @@ void gather_leaves(const BuildInput &input, const uint32_t *order, Scheduler &sc
 /// The same from `boxes` and `prim_ids` in input order; `boxes` may lie in
 /// out.boxes beyond the leaves (InputRoom::Tree), and `order` may be
 /// out.prim_ids itself (each entry is read before the leaf's index
-/// replaces it).
+/// replaces it). `prim_ids` nullptr: entry i is primitive i (input_prim_ids()),
+/// so the leaves' indices are the order's, without a scattered read each
+/// (docs/PERFORMANCE.md, row 225).
 void gather_leaves(const Box *boxes, const uint32_t *prim_ids, const uint32_t *order, Scheduler &scheduler,
                    BinaryTree &out);
+/// input.prim_ids for gather_leaves(), or nullptr where it is the identity
+/// (BuildInput::identity_ids).
+const uint32_t *input_prim_ids(const BuildInput &input);
 
 } // namespace aacbvh

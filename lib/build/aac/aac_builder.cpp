@@ -331,7 +331,7 @@ void build_aac(BuildInput &input, const AacConfig &config, const FlattenRule &ru
         out.boxes.swap(input.boxes);
     else
         out.boxes.resize(2 * size_t(n));
-    gather_leaves(boxes, input.prim_ids.data(), out.prim_ids.data(), ctx.scheduler(), out);
+    gather_leaves(boxes, input_prim_ids(input), out.prim_ids.data(), ctx.scheduler(), out);
     out.boxes.resize(2 * size_t(n)); // taken over: never grows (it holds box_offset + n >= 2n)
     Array<Box>().swap(input.boxes); // the leaves hold them now, in Morton order
     Array<uint32_t>().swap(input.prim_ids); // and the primitives' indices
