@@ -298,13 +298,16 @@ void test_cut_at_leaves_is_full_sweep(void **) {
     if (std::fabs(got - want) > 1e-6 * want) fail_msg("cut at leaves: %.9g, full sweep %.9g", got, want);
 }
 
-// Large splits run as parallel tasks: the same tree at 1, 2 and 3 threads
+// Large splits, the walk that collects the sub-trees and the choices run as
+// parallel tasks: the same tree and the same choices at 1, 2 and 3 threads
 // (thousands of sub-trees, so that both sides of the top splits fork).
 void test_same_at_any_thread_count(void **) {
     const std::vector<Box> boxes = sphere_soup(40000, 3);
     const FlattenRule rule = rule_for(box_input(boxes));
     std::vector<uint32_t> first_children;
     std::vector<Box> first_boxes;
+    std::vector<double> first_costs;
+    std::vector<uint32_t> first_counts;
     for (unsigned threads : {1u, 2u, 3u}) {
         BinaryTree tree;
         SubtreeChoices choices;
@@ -318,13 +321,26 @@ void test_same_at_any_thread_count(void **) {
         std::vector<uint32_t> children;
         std::vector<Box> tree_boxes;
         walk(tree, tree.root, children, tree_boxes);
+        std::vector<double> costs;
+        std::vector<uint32_t> counts;
+        for (const uint32_t id : children) {
+            if (tree.is_leaf(id)) continue;
+            const uint32_t k = id - tree.leaf_count();
+            costs.push_back(choices.cost(k));
+            counts.push_back(choices.prims(k));
+            counts.push_back(choices.leaves(k));
+        }
         if (threads == 1) {
             first_children = children;
             first_boxes = tree_boxes;
+            first_costs = costs;
+            first_counts = counts;
             continue;
         }
         assert_true(children == first_children);
         assert_memory_equal(tree_boxes.data(), first_boxes.data(), tree_boxes.size() * sizeof(Box));
+        assert_memory_equal(costs.data(), first_costs.data(), costs.size() * sizeof(double));
+        assert_true(counts == first_counts);
     }
 }
 

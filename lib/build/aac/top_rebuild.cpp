@@ -126,18 +126,40 @@ private:
     }
 
     /// The maximal sub-trees of at most cut_ primitives (elements_, left to
-    /// right) and the inner nodes above them (top_ids_).
-    void collect() {
-        std::vector<uint32_t> stack{tree_.root};
+    /// right) and the inner nodes above them (top_ids_, depth first, left
+    /// first).
+    void collect() { collect_below(tree_.root, elements_, top_ids_); }
+
+    /// collect() below `root`, appended to `elements` and `tops`. On several
+    /// threads, a node whose two children each hold kForkMin sub-trees' worth
+    /// of primitives or more collects them as parallel tasks, each into lists
+    /// of its own, appended in order: the same lists at any thread count.
+    void collect_below(uint32_t root, std::vector<uint32_t> &elements, std::vector<uint32_t> &tops) {
+        constexpr uint32_t kForkMin = 1024;
+        // One thread: no lists to join (the same lists either way).
+        const uint64_t fork_prims = ctx_.scheduler().thread_count() > 1 ? uint64_t(kForkMin) * cut_ : UINT64_MAX / 2;
+        std::vector<uint32_t> stack{root};
         while (!stack.empty()) {
             const uint32_t id = stack.back();
             stack.pop_back();
             if (tree_.is_leaf(id) || choices_.prims(id - n_) <= cut_) {
-                elements_.push_back(id);
+                elements.push_back(id);
                 continue;
             }
-            top_ids_.push_back(id);
+            tops.push_back(id);
             const uint32_t l = tree_.left(id), r = tree_.right(id);
+            // The node's own count first: its children's are not read yet
+            // (asked for below), and most nodes are too small to fork.
+            if (choices_.prims(id - n_) >= 2 * fork_prims && prims_of(l) >= fork_prims && prims_of(r) >= fork_prims) {
+                std::vector<uint32_t> left_elements, left_tops, right_elements, right_tops;
+                ctx_.scheduler().fork_join([&] { collect_below(l, left_elements, left_tops); },
+                                           [&] { collect_below(r, right_elements, right_tops); });
+                elements.insert(elements.end(), left_elements.begin(), left_elements.end());
+                elements.insert(elements.end(), right_elements.begin(), right_elements.end());
+                tops.insert(tops.end(), left_tops.begin(), left_tops.end());
+                tops.insert(tops.end(), right_tops.begin(), right_tops.end());
+                continue;
+            }
             // Both children's counts and child entries are read soon, from
             // ids scattered over the tree: ask for them now.
             for (const uint32_t c : {l, r})
@@ -281,25 +303,42 @@ private:
         return (ref & kElement) != 0 ? choice_of(elements_[ref & ~kElement]) : node_choice_[ref];
     }
 
-    /// Every new node's choice, children first: a walk from the root that
-    /// meets each node twice, the second time (marked) once its children
-    /// are done.
+    /// Every new node's choice, children first.
     void choose(uint32_t count, uint32_t root) {
-        constexpr uint32_t kChildrenDone = 0x80000000u;
         node_choice_.resize(count - 1);
-        std::vector<uint32_t> stack{root};
+        choose_below(root, 0, count);
+    }
+
+    /// The choices of new node k's sub-tree, which holds the elements of the
+    /// sorted range [b, e): node k is its split m less 1, so its left
+    /// sub-tree holds [b, k + 1) and its right [k + 1, e). On several threads,
+    /// where both sides hold kForkMin elements or more they are chosen as
+    /// parallel tasks, as split_below() splits them; below (and on one
+    /// thread), by a walk that meets each node twice,
+    /// the second time (marked) once its children are done. A node's choice
+    /// depends on its children's alone, so the schedule changes nothing.
+    void choose_below(uint32_t k, uint32_t b, uint32_t e) {
+        constexpr uint32_t kForkMin = 1024;
+        const uint32_t l = node_child_[2 * size_t(k)], r = node_child_[2 * size_t(k) + 1];
+        if (ctx_.scheduler().thread_count() > 1 && k + 1 - b >= kForkMin && e - (k + 1) >= kForkMin) {
+            ctx_.scheduler().fork_join([&] { choose_below(l, b, k + 1); }, [&] { choose_below(r, k + 1, e); });
+            node_choice_[k] = rule_.inner(node_box_[k], child_choice(l), child_choice(r));
+            return;
+        }
+        constexpr uint32_t kChildrenDone = 0x80000000u;
+        std::vector<uint32_t> stack{k};
         while (!stack.empty()) {
             const uint32_t top = stack.back();
-            const uint32_t k = top & ~kChildrenDone;
-            const uint32_t l = node_child_[2 * size_t(k)], r = node_child_[2 * size_t(k) + 1];
+            const uint32_t node = top & ~kChildrenDone;
+            const uint32_t nl = node_child_[2 * size_t(node)], nr = node_child_[2 * size_t(node) + 1];
             if ((top & kChildrenDone) == 0) {
                 stack.back() = top | kChildrenDone;
-                if ((r & kElement) == 0) stack.push_back(r);
-                if ((l & kElement) == 0) stack.push_back(l);
+                if ((nr & kElement) == 0) stack.push_back(nr);
+                if ((nl & kElement) == 0) stack.push_back(nl);
                 continue;
             }
             stack.pop_back();
-            node_choice_[k] = rule_.inner(node_box_[k], child_choice(l), child_choice(r));
+            node_choice_[node] = rule_.inner(node_box_[node], child_choice(nl), child_choice(nr));
         }
     }
 
