@@ -262,7 +262,6 @@ void test_build_reuses_freed_blocks(void **) {
             stats.struct_size = sizeof stats;
             object.stats(stats);
             const double ratio = double(build_mapped) / double(stats.build_peak_bytes);
-            fprintf(stderr, "DBG builder %d mapped %.1f peak %.1f memory %.1f B/tri\n", builder, build_mapped / 2e5, stats.build_peak_bytes / 2e5, stats.memory_bytes / 2e5);
             if (ratio > (builder == AACBVH_BUILDER_AAC_FAST ? 1.25 : 1.95))
                 fail_msg("builder %d mapped %.2f times its peak", builder, ratio);
             assert_int_equal(object.kept_build_bytes(), 0);
