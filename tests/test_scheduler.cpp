@@ -315,8 +315,13 @@ static void test_parallel_page_mapper(void **) {
     // The parallel mapper leaves every page of a block as mapped as one
     // map_pages() call does (all of them where the kernel has
     // MADV_POPULATE_WRITE): its pieces cover the block, the odd tail included.
+    // Under ParallelPageMapper::kParallelFrom (the allocating thread maps
+    // them), at it, and above it with a piece's tail.
     const size_t sizes[] = {aacbvh::kHugePageBytes, 2 * aacbvh::kHugePageBytes + 4096, 9 * aacbvh::kHugePageBytes,
-                            23 * aacbvh::kHugePageBytes + 12288};
+                            aacbvh::ParallelPageMapper::kParallelFrom, 23 * aacbvh::kHugePageBytes + 12288,
+                            37 * aacbvh::kHugePageBytes + 4096};
+    static_assert(aacbvh::ParallelPageMapper::kParallelFrom <= 23 * aacbvh::kHugePageBytes,
+                  "the last sizes must be mapped in pieces");
     for (unsigned threads : kThreadCounts) {
         Scheduler s(threads);
         const aacbvh::ParallelPageMapper mapper(s);

@@ -403,7 +403,7 @@ void ParallelPageMapper::map(char *p, size_t bytes) const noexcept {
     const size_t wanted = (bytes + 2 * threads - 1) / (2 * threads);
     const size_t piece = (wanted + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
     const size_t pieces = (bytes + piece - 1) / piece;
-    if (threads <= 1 || pieces < 2) {
+    if (threads <= 1 || bytes < kParallelFrom) {
         map_pages(p, bytes);
         return;
     }

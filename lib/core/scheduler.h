@@ -149,10 +149,14 @@ private:
 /// A PageMapper (core/memory.h) that maps a big block's pages in pieces of
 /// whole huge pages on a scheduler's threads: a build installs one on its
 /// thread when it has more than one, so that the kernel clears its fresh
-/// pages on all of them. Blocks of fewer than two pieces are mapped by the
-/// allocating thread. The pages are the same whoever maps them.
+/// pages on all of them. Blocks under kParallelFrom are mapped by the
+/// allocating thread: waking the workers for less cost two-thread builds of
+/// 200 K triangles more than it saved (docs/PERFORMANCE.md, row 224). The
+/// pages are the same whoever maps them.
 class ParallelPageMapper final : public PageMapper {
 public:
+    static constexpr size_t kParallelFrom = 16 * kHugePageBytes;
+
     explicit ParallelPageMapper(Scheduler &scheduler) noexcept : scheduler_(scheduler) {}
     void map(char *p, size_t bytes) const noexcept override;
 
