@@ -314,9 +314,9 @@ private:
     /// sub-tree holds [b, k + 1) and its right [k + 1, e). On several threads,
     /// where both sides hold kForkMin elements or more they are chosen as
     /// parallel tasks, as split_below() splits them; below (and on one
-    /// thread), by a walk that meets each node twice,
-    /// the second time (marked) once its children are done. A node's choice
-    /// depends on its children's alone, so the schedule changes nothing.
+    /// thread), by a walk that meets each node twice, the second time
+    /// (marked) once its children are done. A node's choice depends on its
+    /// children's alone, so the schedule changes nothing.
     void choose_below(uint32_t k, uint32_t b, uint32_t e) {
         constexpr uint32_t kForkMin = 1024;
         const uint32_t l = node_child_[2 * size_t(k)], r = node_child_[2 * size_t(k) + 1];
