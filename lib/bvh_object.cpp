@@ -75,6 +75,22 @@ private:
     BlockCache::Scope scope_;
 };
 
+namespace {
+
+/// A build's (or an optimisation's) fresh pages cleared on every thread of
+/// its context, where it has more than one (core/scheduler.h), while it lives.
+class BuildPageMapping {
+public:
+    explicit BuildPageMapping(Scheduler &scheduler)
+        : mapper_(scheduler), scope_(scheduler.thread_count() > 1 ? &mapper_ : nullptr) {}
+
+private:
+    const ParallelPageMapper mapper_; // declared first: scope_ installs it
+    const PageMapper::Scope scope_;
+};
+
+} // namespace
+
 void BvhObject::require_idle() const {
     if (building_)
         throw Error(AACBVH_ERROR_INVALID_OPERATION,
@@ -157,9 +173,7 @@ void BvhObject::build() {
     ScratchArena scratch;
     const ScratchArena::Scope scratch_scope(&scratch);
 
-    // Fresh pages cleared on every thread of the build (core/memory.h).
-    const ParallelPageMapper page_mapper(scheduler_);
-    const PageMapper::Scope page_mapping(scheduler_.thread_count() > 1 ? &page_mapper : nullptr);
+    const BuildPageMapping page_mapping(scheduler_);
     BuildContext ctx(scheduler_, progress_, progress_user_);
     ctx.report(0.0);
 
@@ -493,9 +507,7 @@ void BvhObject::optimize(uint32_t passes) {
     const KeptMemory kept(kept_blocks_, params.keep_build_memory);
     ScratchArena scratch; // as in build()
     const ScratchArena::Scope scratch_scope(&scratch);
-    // Fresh pages cleared on every thread of the build (core/memory.h).
-    const ParallelPageMapper page_mapper(scheduler_);
-    const PageMapper::Scope page_mapping(scheduler_.thread_count() > 1 ? &page_mapper : nullptr);
+    const BuildPageMapping page_mapping(scheduler_);
     BuildContext ctx(scheduler_, progress_, progress_user_);
     ctx.report(0.0);
     if (passes == 0 || bvh_.prim_ids.size() < 3) { // fewer than three primitives: one topology

@@ -398,15 +398,15 @@ void Scheduler::fork_join_impl(detail::Task &b, void (*a)(void *), void *actx) {
 }
 
 void ParallelPageMapper::map(char *p, size_t bytes) const noexcept {
-    // Two pieces a thread, each whole huge pages, for the balance.
     const size_t threads = scheduler_.thread_count();
-    const size_t wanted = (bytes + 2 * threads - 1) / (2 * threads);
-    const size_t piece = (wanted + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
-    const size_t pieces = (bytes + piece - 1) / piece;
     if (threads <= 1 || bytes < kParallelFrom) {
         map_pages(p, bytes);
         return;
     }
+    // Two pieces a thread, each whole huge pages, for the balance.
+    const size_t wanted = (bytes + 2 * threads - 1) / (2 * threads);
+    const size_t piece = (wanted + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
+    const size_t pieces = (bytes + piece - 1) / piece;
     try {
         scheduler_.parallel_for(0, pieces, 1, [&](size_t b, size_t e) {
             for (size_t i = b; i < e; ++i) map_pages(p + i * piece, std::min(piece, bytes - i * piece));

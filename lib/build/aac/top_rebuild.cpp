@@ -104,6 +104,10 @@ public:
     }
 
 private:
+    /// Work on both sides of a node forks into parallel tasks where each
+    /// side holds this many elements (sub-trees below the cut) or more.
+    static constexpr uint32_t kForkMin = 1024;
+
     template <class... Arrays> static void release(Arrays &...arrays) { (std::decay_t<Arrays>().swap(arrays), ...); }
 
     /// The elements' indices sorted by centroid on each axis (order_).
@@ -135,9 +139,9 @@ private:
     /// of primitives or more collects them as parallel tasks, each into lists
     /// of its own, appended in order: the same lists at any thread count.
     void collect_below(uint32_t root, std::vector<uint32_t> &elements, std::vector<uint32_t> &tops) {
-        constexpr uint32_t kForkMin = 1024;
         // One thread: no lists to join (the same lists either way).
-        const uint64_t fork_prims = ctx_.scheduler().thread_count() > 1 ? uint64_t(kForkMin) * cut_ : UINT64_MAX / 2;
+        const bool may_fork = ctx_.scheduler().thread_count() > 1;
+        const uint64_t fork_prims = uint64_t(kForkMin) * cut_;
         std::vector<uint32_t> stack{root};
         while (!stack.empty()) {
             const uint32_t id = stack.back();
@@ -150,7 +154,8 @@ private:
             const uint32_t l = tree_.left(id), r = tree_.right(id);
             // The node's own count first: its children's are not read yet
             // (asked for below), and most nodes are too small to fork.
-            if (choices_.prims(id - n_) >= 2 * fork_prims && prims_of(l) >= fork_prims && prims_of(r) >= fork_prims) {
+            if (may_fork && choices_.prims(id - n_) >= 2 * fork_prims && prims_of(l) >= fork_prims &&
+                prims_of(r) >= fork_prims) {
                 std::vector<uint32_t> left_elements, left_tops, right_elements, right_tops;
                 ctx_.scheduler().fork_join([&] { collect_below(l, left_elements, left_tops); },
                                            [&] { collect_below(r, right_elements, right_tops); });
@@ -216,7 +221,6 @@ private:
     /// elements' sides and its own node (local index m - 1), so the result
     /// does not depend on the schedule.
     void split_below(Range range) {
-        constexpr uint32_t kForkMin = 1024;
         std::vector<Range> stack{range};
         PollingCounter work(ctx_);
         while (!stack.empty()) {
@@ -318,7 +322,6 @@ private:
     /// (marked) once its children are done. A node's choice depends on its
     /// children's alone, so the schedule changes nothing.
     void choose_below(uint32_t k, uint32_t b, uint32_t e) {
-        constexpr uint32_t kForkMin = 1024;
         const uint32_t l = node_child_[2 * size_t(k)], r = node_child_[2 * size_t(k) + 1];
         if (ctx_.scheduler().thread_count() > 1 && k + 1 - b >= kForkMin && e - (k + 1) >= kForkMin) {
             ctx_.scheduler().fork_join([&] { choose_below(l, b, k + 1); }, [&] { choose_below(r, k + 1, e); });
