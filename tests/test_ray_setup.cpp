@@ -7,7 +7,10 @@
 //   traced_ray() hands back the caller's ray, the scaled twin, or null
 //   accordingly;
 // - SpillStack returns what was pushed, last in first out, also past its
-//   fixed part (the heap block grows through several doublings).
+//   fixed part (the heap block grows through several doublings), also when
+//   pushes into room that has_room() promised (push_within(), the 8-wide
+//   traversal's node loop) mix with growing pushes and reserve(); under
+//   AddressSanitizer a push past the block's end would fail here.
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -161,6 +164,55 @@ void test_spill_stack(void **) {
     assert_true(stack.empty());
 }
 
+/// The 8-wide traversal's protocol: a node asks has_room(7), reserve()s
+/// when there is none, then push_within()s up to seven entries; growing
+/// pushes and pops mixed in. has_room() must hold after reserve(), and
+/// every pop return the matching push.
+void test_spill_stack_room(void **) {
+    SpillBlock<Item> spill;
+    SpillStack<Item, 16> stack(spill);
+    std::vector<Item> mirror;
+    Rng rng{777};
+    size_t reserves = 0;
+    for (int step = 0; step < 100000; ++step) {
+        const uint64_t r = rng.next();
+        const unsigned kind = unsigned(r % 8);
+        if (kind < 3 || mirror.empty()) { // a node's children
+            if (!stack.has_room(7)) {
+                stack.reserve(7);
+                ++reserves;
+            }
+            assert_true(stack.has_room(7));
+            const unsigned n = 1 + unsigned((r >> 8) % 7);
+            for (unsigned i = 0; i < n; ++i) {
+                const Item it{uint32_t(r >> 16) + i, uint32_t(step), float(i)};
+                stack.push_within(it);
+                mirror.push_back(it);
+            }
+        } else if (kind == 3) { // a growing push
+            const Item it{uint32_t(r), uint32_t(step), -1.0f};
+            stack.push(it);
+            mirror.push_back(it);
+        } else {
+            const unsigned n = step < 50000 ? 2 : 6; // deep first, then back down
+            for (unsigned i = 0; i < n && !mirror.empty(); ++i) {
+                const Item got = stack.pop();
+                assert_int_equal(got.a, mirror.back().a);
+                assert_int_equal(got.b, mirror.back().b);
+                assert_true(got.t == mirror.back().t);
+                mirror.pop_back();
+            }
+        }
+        assert_int_equal(stack.empty(), mirror.empty());
+    }
+    assert_true(reserves > 3); // the block grew through several doublings
+    while (!mirror.empty()) {
+        assert_int_equal(stack.pop().a, mirror.back().a);
+        mirror.pop_back();
+    }
+    assert_true(stack.empty());
+}
+
 } // namespace
 
 int main(void) {
@@ -168,6 +220,7 @@ int main(void) {
         cmocka_unit_test(test_edge_values),
         cmocka_unit_test(test_random_rays),
         cmocka_unit_test(test_spill_stack),
+        cmocka_unit_test(test_spill_stack_room),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

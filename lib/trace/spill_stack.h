@@ -7,6 +7,11 @@
 // block is handed to the (out-of-line) code that grows it: the stack's own
 // address never escapes, so the compiler keeps its size in a register
 // instead of reloading and storing it around every push and pop.
+//
+// A loop that must contain no call (a call clobbers every vector register,
+// so the compiler would keep the ray's rows in memory for the whole loop)
+// asks has_room() and pushes with push_within(); when there is no room it
+// leaves the loop, reserve()s outside it, and comes back.
 #pragma once
 
 #include <cstddef>
@@ -29,18 +34,24 @@ public:
     }
 
     const Entry &operator[](size_t i) const { return data_[i]; }
+    Entry &operator[](size_t i) { return data_[i]; }
+    size_t capacity() const { return capacity_; }
     /// Stores `e` at index i <= the count stored so far, growing the block
     /// (doubling) when needed; throws std::bad_alloc when it cannot. `e` by
     /// value: a reference would make every push build its entry in memory.
     [[gnu::noinline, gnu::cold]] static void put(SpillBlock &block, size_t i, Entry e) {
-        if (i == block.capacity_) {
-            const size_t capacity = block.capacity_ == 0 ? 64 : 2 * block.capacity_;
-            void *grown = std::realloc(block.data_, capacity * sizeof(Entry));
-            if (grown == nullptr) throw std::bad_alloc();
-            block.data_ = static_cast<Entry *>(grown);
-            block.capacity_ = capacity;
-        }
+        if (i == block.capacity_) grow(block, i + 1);
         block.data_[i] = e;
+    }
+    /// Makes room for at least `count` entries (doubling); throws
+    /// std::bad_alloc when it cannot.
+    [[gnu::noinline, gnu::cold]] static void grow(SpillBlock &block, size_t count) {
+        size_t capacity = block.capacity_ == 0 ? 64 : 2 * block.capacity_;
+        while (capacity < count) capacity *= 2;
+        void *grown = std::realloc(block.data_, capacity * sizeof(Entry));
+        if (grown == nullptr) throw std::bad_alloc();
+        block.data_ = static_cast<Entry *>(grown);
+        block.capacity_ = capacity;
     }
 
 private:
@@ -57,11 +68,31 @@ public:
     bool empty() const { return size_ == 0; }
     /// Throws std::bad_alloc when the spill block cannot grow.
     void push(const Entry &e) {
+        if (size_ < kFixed) {
+            fixed_[size_] = e;
+        } else {
+            SpillBlock<Entry>::put(spill_, size_ - kFixed, e);
+            room_ = kFixed + spill_.capacity();
+        }
+        ++size_;
+    }
+    /// Whether `count` more entries fit without growing: push_within() may
+    /// then take them.
+    bool has_room(size_t count) const { return room_ - size_ >= count; }
+    /// Pushes into room that has_room() promised: never a call.
+    void push_within(const Entry &e) {
         if (size_ < kFixed)
             fixed_[size_] = e;
         else
-            SpillBlock<Entry>::put(spill_, size_ - kFixed, e);
+            spill_[size_ - kFixed] = e;
         ++size_;
+    }
+    /// Grows the room so that `count` more entries fit (out of line, on the
+    /// block only); throws std::bad_alloc when it cannot.
+    void reserve(size_t count) {
+        if (has_room(count)) return;
+        SpillBlock<Entry>::grow(spill_, size_ + count - kFixed);
+        room_ = kFixed + spill_.capacity();
     }
     Entry pop() {
         --size_;
@@ -71,6 +102,7 @@ public:
 
 private:
     size_t size_ = 0;
+    size_t room_ = kFixed; ///< entries that fit before the block must grow
     SpillBlock<Entry> &spill_;
     Entry fixed_[kFixed];
 };

@@ -55,6 +55,8 @@ struct Entry {
 };
 
 using EntryStack = SpillStack<Entry, 256>;
+/// The most entries one node pushes: its children but the one visited next.
+constexpr size_t kMostPushes = 7;
 
 /// A key whose unsigned order is the order of t (sign-magnitude flipped to
 /// two's complement; the negative keys of children holding the origin,
@@ -148,7 +150,11 @@ struct NoSlots {
 /// farthest first; a node with no hit child pops the next pending entry
 /// (HitRecord::pop_next). False when nothing is left to visit. A loop of
 /// its own, apart from the leaf tests (calls): pops after a node with no hit
-/// child go straight to the next node test.
+/// child go straight to the next node test. No call inside it either: a
+/// node that would push where the stack has no room returns true with
+/// `current` still that inner node, and traverse() grows the stack and comes
+/// back to test it again (a call in the loop, even a cold one, made the
+/// compiler keep the ray's rows in memory: docs/PERFORMANCE.md row 231).
 template <bool AnyHit, bool Packets, bool FromZero>
 [[gnu::always_inline]] inline bool descend(const Wide8Node *nodes, const TrianglePacket *packets, const NodeRay &r,
                                            float tmin, float bound, const HitRecord<AnyHit> &best, EntryStack &stack,
@@ -168,11 +174,12 @@ template <bool AnyHit, bool Packets, bool FromZero>
             current = Entry{node.child[k0], node.count[k0], t_entry[k0]};
             continue;
         }
+        if (!stack.has_room(kMostPushes)) return true; // traverse() grows the stack
         if (AnyHit) { // any hit ends the query: no sorting; the largest box first
             do {
                 const unsigned k = unsigned(__builtin_ctz(mask));
                 mask &= mask - 1;
-                stack.push(Entry{node.child[k], node.count[k], t_entry[k]});
+                stack.push_within(Entry{node.child[k], node.count[k], t_entry[k]});
             } while (mask != 0);
             current = Entry{node.child[k0], node.count[k0], t_entry[k0]};
             continue;
@@ -181,7 +188,7 @@ template <bool AnyHit, bool Packets, bool FromZero>
         if ((mask & (mask - 1)) == 0) { // two: one comparison
             const bool swap = t_entry[k1] <= t_entry[k0]; // equal: the smaller box (k1)
             const unsigned near = swap ? k1 : k0, far = swap ? k0 : k1;
-            stack.push(Entry{node.child[far], node.count[far], t_entry[far]});
+            stack.push_within(Entry{node.child[far], node.count[far], t_entry[far]});
             if (Packets || node.count[far] == 0) prefetch_child(nodes, packets, node.child[far], node.count[far]);
             current = Entry{node.child[near], node.count[near], t_entry[near]};
             continue;
@@ -191,7 +198,7 @@ template <bool AnyHit, bool Packets, bool FromZero>
         const int n = sort_hits(mask | (1u << k0), t_entry, key);
         for (int i = n; i-- > 1;) {
             const unsigned k = ~key[i] & 7u;
-            stack.push(Entry{node.child[k], node.count[k], t_entry[k]});
+            stack.push_within(Entry{node.child[k], node.count[k], t_entry[k]});
             if (Packets || node.count[k] == 0) prefetch_child(nodes, packets, node.child[k], node.count[k]);
         }
         const unsigned k = ~key[0] & 7u;
@@ -224,6 +231,10 @@ template <bool AnyHit, bool Packets, class Slots>
                   ? descend<AnyHit, Packets, true>(nodes, packets, nray, tmin, bound, best, stack, current)
                   : descend<AnyHit, Packets, false>(nodes, packets, nray, tmin, bound, best, stack, current)))
             break;
+        if (current.count == 0) { // descend() found no room on the stack for a node's children
+            stack.reserve(kMostPushes);
+            continue;
+        }
         if (Packets ? test_packets<AnyHit>(packets + current.child, current.count, tray, pray, tmin, best)
                     : best.test_leaf(slots, prim_ids, current.child, current.count, tmin))
             break;
