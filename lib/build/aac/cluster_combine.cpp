@@ -307,6 +307,7 @@ uint32_t combine_once(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint3
     // The pair as one word (a, b << 16) chosen through a mask: three
     // selections on one comparison became a branch, which the data (which
     // pair is nearest) mispredicts about as often as not.
+    static_assert(kSmallCombine <= 0x10000, "slots must fit 16 bits");
     float best = INFINITY;
     uint32_t pair = 1u << 16;
     for (uint32_t i = 0; i + 1 < count; ++i)
