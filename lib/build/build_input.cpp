@@ -217,25 +217,18 @@ void gather_leaves(const Box *boxes, const uint32_t *prim_ids, const uint32_t *o
     Box *const leaves = out.boxes.data();
     uint32_t *const leaf_prims = out.prim_ids.data();
     // The sorted order scatters the reads: asked for kAhead places early.
+    // Without prim_ids (the identity) a leaf's index is the order's entry,
+    // read in sequence; where `order` is out.prim_ids that rewrites it as is.
     constexpr size_t kAhead = 16;
-    if (prim_ids == nullptr) { // the identity: the order is the primitives
-        scheduler.parallel_for(0, out.leaf_count(), kGrain, [&](size_t b, size_t e) {
-            for (size_t i = b; i < e; ++i) {
-                if (i + kAhead < e) __builtin_prefetch(&boxes[order[i + kAhead]]);
-                leaves[i] = boxes[order[i]];
-                if (order != leaf_prims) leaf_prims[i] = order[i];
-            }
-        });
-        return;
-    }
     scheduler.parallel_for(0, out.leaf_count(), kGrain, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i) {
             if (i + kAhead < e) {
                 __builtin_prefetch(&boxes[order[i + kAhead]]);
-                __builtin_prefetch(&prim_ids[order[i + kAhead]]);
+                if (prim_ids != nullptr) __builtin_prefetch(&prim_ids[order[i + kAhead]]);
             }
-            leaves[i] = boxes[order[i]];
-            leaf_prims[i] = prim_ids[order[i]];
+            const uint32_t o = order[i];
+            leaves[i] = boxes[o];
+            leaf_prims[i] = prim_ids != nullptr ? prim_ids[o] : o;
         }
     });
 }

@@ -36,13 +36,6 @@ public:
     const Entry &operator[](size_t i) const { return data_[i]; }
     Entry &operator[](size_t i) { return data_[i]; }
     size_t capacity() const { return capacity_; }
-    /// Stores `e` at index i <= the count stored so far, growing the block
-    /// (doubling) when needed; throws std::bad_alloc when it cannot. `e` by
-    /// value: a reference would make every push build its entry in memory.
-    [[gnu::noinline, gnu::cold]] static void put(SpillBlock &block, size_t i, Entry e) {
-        if (i == block.capacity_) grow(block, i + 1);
-        block.data_[i] = e;
-    }
     /// Makes room for at least `count` entries (doubling); throws
     /// std::bad_alloc when it cannot.
     [[gnu::noinline, gnu::cold]] static void grow(SpillBlock &block, size_t count) {
@@ -68,13 +61,8 @@ public:
     bool empty() const { return size_ == 0; }
     /// Throws std::bad_alloc when the spill block cannot grow.
     void push(const Entry &e) {
-        if (size_ < kFixed) {
-            fixed_[size_] = e;
-        } else {
-            SpillBlock<Entry>::put(spill_, size_ - kFixed, e);
-            room_ = kFixed + spill_.capacity();
-        }
-        ++size_;
+        if (size_ >= kFixed) reserve(1);
+        push_within(e);
     }
     /// Whether `count` more entries fit without growing: push_within() may
     /// then take them.
