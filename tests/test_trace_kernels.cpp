@@ -17,6 +17,7 @@ extern "C" {
 #include <cmocka.h>
 }
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <vector>
@@ -145,6 +146,73 @@ void test_boxes(void **) {
     std::free(boxes);
 }
 
+/// Rays from outside the scene's box, answered by the root's node test
+/// before the set-up when they miss every child (misses_root(),
+/// trace/wide8_kernel.inl): rays along the box's faces, edges and corners,
+/// a few float steps inside or outside them, with windows from 0 and from
+/// below 0 (the node test's two forms); then the same after a refit has
+/// moved and stretched the mesh, so that the box the check starts from is
+/// the refit tree's (rays from inside the old box now come from outside).
+void test_rays_from_outside(void **) {
+    ts_mesh mesh;
+    assert_true(ts_make_scene(TS_SCENE_RANDOM, 600, 31, &mesh));
+    aacbvh_context *ctx = nullptr;
+    TS_EXPECT_STATUS(aacbvh_context_create(1, &ctx), AACBVH_OK);
+    aacbvh_bvh *ref = make(ctx, AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_REFERENCED, AACBVH_BUILDER_AAC_HQ);
+    aacbvh_bvh *wide = make(ctx, AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED, AACBVH_BUILDER_AAC_HQ);
+    for (aacbvh_bvh *b : {ref, wide}) {
+        ts_set_mesh(b, &mesh);
+        TS_EXPECT_STATUS(aacbvh_bvh_build(b), AACBVH_OK);
+    }
+    const size_t count = TS_RAYS(4000);
+    std::vector<aacbvh_ray> rays(count);
+    for (int round = 0; round < 2; ++round) {
+        float lo[3], hi[3];
+        ts_coords_bounds(mesh.vertices, 3 * mesh.vertex_count, lo, hi);
+        ts_rng rng;
+        ts_rng_seed(&rng, 700 + round);
+        for (aacbvh_ray &r : rays) {
+            // A target on the box's surface (each coordinate at a face with
+            // probability one half, so edges and corners come up), moved a
+            // few float steps in or out, and an origin beyond it outside the
+            // box, reached along a random direction or along an axis.
+            float target[3];
+            for (int k = 0; k < 3; ++k) {
+                target[k] = ts_rng_range(&rng, lo[k], hi[k]);
+                if (ts_rng_below(&rng, 2) == 0) target[k] = ts_rng_below(&rng, 2) == 0 ? lo[k] : hi[k];
+                for (uint32_t step = ts_rng_below(&rng, 4); step > 0; --step)
+                    target[k] = std::nextafter(target[k], ts_rng_below(&rng, 2) == 0 ? -INFINITY : INFINITY);
+            }
+            const int axis = int(ts_rng_below(&rng, 4)); // 3: any direction
+            for (int k = 0; k < 3; ++k) {
+                const float extent = hi[k] - lo[k];
+                float d = axis == 3 ? ts_rng_range(&rng, -1.0f, 1.0f) : (k == axis ? 1.0f : 0.0f);
+                if (axis != 3 && k == axis && ts_rng_below(&rng, 2) == 0) d = -1.0f;
+                r.dir[k] = d;
+                // Start 1.5 extents back along the direction: outside the box.
+                r.org[k] = target[k] - 1.5f * (extent > 0.0f ? extent : 1.0f) * d;
+            }
+            if (r.dir[0] == 0.0f && r.dir[1] == 0.0f && r.dir[2] == 0.0f) r.dir[0] = 1.0f;
+            r.tmin = ts_rng_below(&rng, 4) == 0 ? -1.0f : 0.0f;
+            r.tmax = ts_rng_below(&rng, 4) == 0 ? 1.5f : INFINITY;
+        }
+        char what[96];
+        std::snprintf(what, sizeof what, "rays from outside the box, %s", round == 0 ? "built" : "after a refit");
+        assert_true(compare_kernels(ref, wide, rays.data(), count, what) >= 1);
+        // Move the mesh by half its extent and stretch it along x, then refit.
+        for (size_t i = 0; i < mesh.vertex_count; ++i) {
+            float *v = &mesh.vertices[3 * i];
+            v[0] = 2.0f * v[0] + 0.5f * (hi[0] - lo[0]);
+            v[1] += 0.5f * (hi[1] - lo[1]);
+        }
+        for (aacbvh_bvh *b : {ref, wide}) TS_EXPECT_STATUS(aacbvh_bvh_refit(b), AACBVH_OK);
+    }
+    aacbvh_bvh_destroy(ref);
+    aacbvh_bvh_destroy(wide);
+    aacbvh_context_destroy(ctx);
+    ts_mesh_free(&mesh);
+}
+
 } // namespace
 
 int main(void) {
@@ -153,6 +221,7 @@ int main(void) {
         cmocka_unit_test(test_every_scene_kind),
         cmocka_unit_test(test_far_watertight_grid),
         cmocka_unit_test(test_boxes),
+        cmocka_unit_test(test_rays_from_outside),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }

@@ -19,6 +19,20 @@ void Wide8Bvh::clear() {
     Array<uint32_t>().swap(packet_owner_);
     node_count_ = 0;
     built_ = false;
+    update_bounds();
+}
+
+void Wide8Bvh::update_bounds() {
+    for (int a = 0; a < 3; ++a) {
+        float lo = INFINITY, hi = -INFINITY;
+        if (node_count_ != 0)
+            for (int k = 0; k < 8; ++k) { // an unused slot's empty box changes nothing
+                lo = std::min(lo, nodes_[0].box[2 * a][k]);
+                hi = std::max(hi, nodes_[0].box[2 * a + 1][k]);
+            }
+        bounds_[a] = lo;
+        bounds_[4 + a] = hi;
+    }
 }
 
 namespace {
@@ -362,6 +376,7 @@ void Wide8Bvh::build_from(const Source &source, typename Source::Handle root, co
     packet_owner_ = std::move(packet_owner);
     node_count_ = next;
     built_ = true;
+    update_bounds();
 }
 
 void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &scheduler) {
@@ -395,6 +410,7 @@ void Wide8Bvh::refit(const Bvh &bvh, const Geometry &geometry, Scheduler &schedu
             for (int k = 0; k < 8; ++k)
                 if (sources[8 * i + k] != Wide8Node::kEmptyChild) write_slot_box(nodes[i], k, bnodes[sources[8 * i + k]].box);
     });
+    update_bounds();
     refill_packets(geometry, scheduler);
 }
 
@@ -452,6 +468,7 @@ void Wide8Bvh::refit_from_packets(const Geometry &geometry, Scheduler &scheduler
                 nodes[w].box[2 * a + 1][k] = hi;
             }
         }
+    update_bounds();
 }
 
 void Wide8Bvh::index_packets(size_t primitive_count, Array<uint32_t> &out, Scheduler &scheduler) const {

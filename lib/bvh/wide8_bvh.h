@@ -142,6 +142,11 @@ public:
         return b;
     }
 
+    /// The union of the root's children's boxes: lo x, y, z, 0, then hi x, y,
+    /// z, 0 (16-byte aligned halves; empty, lo +inf and hi -inf, without
+    /// nodes), for the traversals' check of a ray against the whole tree
+    /// before their set-up (misses_root(), trace/wide8_kernel.inl).
+    const float *bounds() const { return bounds_; }
     /// The packets' owners: 8 * node + slot of each packet's leaf child.
     const Array<uint32_t> &packet_owners() const { return packet_owner_; }
 
@@ -157,6 +162,8 @@ private:
                     const std::function<void()> &source_done);
     /// Re-reads every packet's vertices from `geometry`.
     void refill_packets(const Geometry &geometry, Scheduler &scheduler);
+    /// bounds_ from the root's boxes, after every change of them.
+    void update_bounds();
 
     Array<Wide8Node> nodes_;
     /// For refit: the binary node behind each child slot (8 per wide node,
@@ -165,6 +172,7 @@ private:
     Array<TrianglePacket> packets_;
     /// For refit_from_packets: each packet's leaf child slot (8 * node + k).
     Array<uint32_t> packet_owner_;
+    alignas(16) float bounds_[8] = {INFINITY, INFINITY, INFINITY, 0.0f, -INFINITY, -INFINITY, -INFINITY, 0.0f};
     size_t node_count_ = 0;
     bool built_ = false;
 };

@@ -106,6 +106,21 @@ inline const aacbvh_ray *traced_ray(const aacbvh_ray &ray, ScaledRay &scaled) {
     return &scaled.ray;
 }
 
+/// Whether the ray's origin lies in the box `bounds` (lo x, y, z, then hi x,
+/// y, z, at 16-byte aligned offsets 0 and 4; closed). False for a NaN
+/// coordinate.
+inline bool origin_in_bounds(const float *bounds, const aacbvh_ray &ray) {
+#if defined(__SSE2__)
+    const __m128 org = _mm_loadu_ps(ray.org); // x, y, z, tmin (lane 3 unused)
+    const __m128 in = _mm_and_ps(_mm_cmple_ps(_mm_load_ps(bounds), org), _mm_cmple_ps(org, _mm_load_ps(bounds + 4)));
+    return (_mm_movemask_ps(in) & 7) == 7;
+#else
+    for (int k = 0; k < 3; ++k)
+        if (!(bounds[k] <= ray.org[k] && ray.org[k] <= bounds[4 + k])) return false;
+    return true;
+#endif
+}
+
 inline void set_miss(aacbvh_hit &hit) {
     hit.t = INFINITY;
     hit.u = 0.0f;

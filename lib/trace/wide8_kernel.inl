@@ -245,6 +245,21 @@ template <bool AnyHit, bool Packets, class Slots>
     return best.found;
 }
 
+/// Whether a ray from outside the tree's bounds misses every child of the
+/// root: then it is answered before the triangle test's set-up (most camera
+/// rays that miss an object: docs/PERFORMANCE.md, row 238). The root's test
+/// is traverse()'s first step, the same call on the same values, so the
+/// answer is the one traverse() would give. A ray from inside (shadow and
+/// bounce rays, views inside a scene) would pass: it pays a compare only.
+template <bool AnyHit>
+[[gnu::always_inline]] inline bool misses_root(const Wide8Bvh &wide, const NodeRay &nray, const aacbvh_ray &r) {
+    if (origin_in_bounds(wide.bounds(), r)) return false;
+    const float bound = exit_bound(nray, HitRecord<AnyHit>(r.tmax));
+    alignas(32) float t_entry[8];
+    return (nray.window_from_zero ? test_children<true, false>(wide.nodes()[0], nray, r.tmin, bound, t_entry)
+                                  : test_children<false, false>(wide.nodes()[0], nray, r.tmin, bound, t_entry)) == 0;
+}
+
 /// One query. With Counted, leaf tests over slots (triangles referenced, or
 /// boxes) are counted into *tests (for the tests of the visiting order); a
 /// tree with packet leaves is answered without counting. The same answer.
@@ -260,6 +275,10 @@ bool query(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const
     const aacbvh_ray &r = *traced;
     const uint32_t *prim_ids = bvh.prim_ids.data();
     const NodeRay nray = make_node_ray(r);
+    if (misses_root<AnyHit>(wide, nray, r)) {
+        set_miss(hit);
+        return false;
+    }
     auto over_slots = [&](const auto &prims, const TriangleRay &tray) {
         if constexpr (Counted)
             return traverse<AnyHit, false>(wide, prim_ids, count_tests(prims, tests), nray, tray, PacketRay{},
