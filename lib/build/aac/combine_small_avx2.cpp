@@ -282,15 +282,6 @@ uint32_t run(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint32_t count
     return greedy_loop(s, tree, ids, free_ids, count, target, rule, choices);
 }
 
-/// Lane `at` of the columns set to box b (whole-register blends: no store of
-/// one lane is ever read back by a wider load, which would stall).
-inline void set_few_lane(__m256 (&c)[6], __m256 at, const Box &b) {
-    for (int k = 0; k < 3; ++k) {
-        c[k] = _mm256_blendv_ps(c[k], _mm256_set1_ps(b.lo[k]), at);
-        c[k + 3] = _mm256_blendv_ps(c[k + 3], _mm256_set1_ps(b.hi[k]), at);
-    }
-}
-
 /// The pairs (a, b), a < b, of up to kPairSlots[R - 1] clusters in slot
 /// order (a first, then b), eight to a register, in R registers: lane p of
 /// register v holds pair 8 v + p; lanes past the pairs hold (0, 0).
@@ -392,9 +383,23 @@ uint32_t combine_pairs(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint
         const uint32_t p = uint32_t(__builtin_ctz(at)); // a finite entry exists (live >= 2)
         const uint32_t a = uint32_t(kPairA[R - 1][p]), b = uint32_t(kPairB[R - 1][p]);
 
+        // The union of slots a and b from the columns, in every lane (no box
+        // read back from the tree): min(b, a) and max(b, a) lane for lane
+        // are unite()'s std::min and std::max, so the same bits. The tree's
+        // box is written a float at a time and read so by the choice.
+        const __m256i va = _mm256_set1_epi32(int(a)), vb = _mm256_set1_epi32(int(b));
+        __m256 merged_cols[6];
+        for (int k = 0; k < 3; ++k) {
+            merged_cols[k] = _mm256_min_ps(_mm256_permutevar8x32_ps(c[k], vb), _mm256_permutevar8x32_ps(c[k], va));
+            merged_cols[k + 3] =
+                _mm256_max_ps(_mm256_permutevar8x32_ps(c[k + 3], vb), _mm256_permutevar8x32_ps(c[k + 3], va));
+        }
         const uint32_t node = free_ids[used++];
-        const Box merged = unite(tree.boxes[ids[a]], tree.boxes[ids[b]]);
-        tree.boxes[node] = merged;
+        Box &merged = tree.boxes[node];
+        for (int k = 0; k < 3; ++k) {
+            merged.lo[k] = _mm256_cvtss_f32(merged_cols[k]);
+            merged.hi[k] = _mm256_cvtss_f32(merged_cols[k + 3]);
+        }
         tree.set_children(node, ids[a], ids[b]);
         choices.set(node - n, rule.inner(merged, cluster_choice(tree, rule, choices, ids[a]),
                                          cluster_choice(tree, rule, choices, ids[b])));
@@ -402,11 +407,13 @@ uint32_t combine_pairs(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint
         const uint32_t last = live - 1;
         live = last;
         ids[a] = node;
-        set_few_lane(c, _mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, _mm256_set1_epi32(int(a)))), merged);
+        const __m256 at_a = _mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, va));
+        for (int k = 0; k < 6; ++k) c[k] = _mm256_blendv_ps(c[k], merged_cols[k], at_a);
         if (b != last) { // the last live cluster moves into slot b
             ids[b] = ids[last];
-            set_few_lane(c, _mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, _mm256_set1_epi32(int(b)))),
-                         tree.boxes[ids[b]]);
+            const __m256i vlast = _mm256_set1_epi32(int(last));
+            const __m256 at_b = _mm256_castsi256_ps(_mm256_cmpeq_epi32(lane, vb));
+            for (int k = 0; k < 6; ++k) c[k] = _mm256_blendv_ps(c[k], _mm256_permutevar8x32_ps(c[k], vlast), at_b);
         }
     }
     for (uint32_t i = 0; i < live; ++i) free_ids[i] = free_ids[used + i];
