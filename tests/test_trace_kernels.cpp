@@ -174,8 +174,9 @@ void test_rays_from_outside(void **) {
         for (aacbvh_ray &r : rays) {
             // A target on the box's surface (each coordinate at a face with
             // probability one half, so edges and corners come up), moved a
-            // few float steps in or out, and an origin beyond it outside the
-            // box, reached along a random direction or along an axis.
+            // few float steps in or out, and an origin 1.5 extents back from
+            // it along a random direction (mostly outside the box) or along
+            // an axis (outside).
             float target[3];
             for (int k = 0; k < 3; ++k) {
                 target[k] = ts_rng_range(&rng, lo[k], hi[k]);
@@ -189,7 +190,6 @@ void test_rays_from_outside(void **) {
                 float d = axis == 3 ? ts_rng_range(&rng, -1.0f, 1.0f) : (k == axis ? 1.0f : 0.0f);
                 if (axis != 3 && k == axis && ts_rng_below(&rng, 2) == 0) d = -1.0f;
                 r.dir[k] = d;
-                // Start 1.5 extents back along the direction: outside the box.
                 r.org[k] = target[k] - 1.5f * (extent > 0.0f ? extent : 1.0f) * d;
             }
             if (r.dir[0] == 0.0f && r.dir[1] == 0.0f && r.dir[2] == 0.0f) r.dir[0] = 1.0f;
