@@ -320,14 +320,8 @@ uint32_t combine_once(BinaryTree &tree, uint32_t *ids, uint32_t *free_ids, uint3
     const uint32_t a = pair & 0xFFFFu, b = pair >> 16;
     auto choice = [&](uint32_t id) { return id < n ? rule.leaf(tree.boxes[id]) : choices.get(id - n); };
     const uint32_t node = free_ids[0];
-    // unite()'s bits written into the tree a float at a time, as the choice
-    // reads them: a union made in the stack and copied whole was read back
-    // by wider loads than its stores (docs/PERFORMANCE.md, row 241).
     Box &merged = tree.boxes[node];
-    for (int k = 0; k < 3; ++k) {
-        merged.lo[k] = std::min(box[a].lo[k], box[b].lo[k]);
-        merged.hi[k] = std::max(box[a].hi[k], box[b].hi[k]);
-    }
+    write_union(merged, box[a], box[b]); // no union copied from the stack (row 241)
     tree.set_children(node, ids[a], ids[b]);
     choices.set(node - n, rule.inner(merged, choice(ids[a]), choice(ids[b])));
     const uint32_t last = count - 1;
