@@ -607,7 +607,7 @@ void BvhObject::intersect(const aacbvh_ray *rays, aacbvh_hit *hits, size_t count
     if (wide8_.built()) {
         const Wide8Kernel &kernel = wide8_kernel();
         scheduler_.parallel_for(0, count, 256, [&](size_t b, size_t e) {
-            for (size_t i = b; i < e; ++i) kernel.intersect(wide8_, bvh_, geometry_, rays[i], hits[i]);
+            kernel.intersect_batch(wide8_, bvh_, geometry_, rays + b, hits + b, e - b);
         });
         return;
     }

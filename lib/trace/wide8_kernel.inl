@@ -319,3 +319,12 @@ bool occluded_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geomet
     aacbvh_hit unused;
     return query<true>(wide, bvh, geometry, ray, unused);
 }
+
+#if !AACBVH_WIDE8_PACKETS
+/// intersect_entry() over rays[0, count) into hits[0, count), one by one
+/// (the AVX2 kernel traces runs of coherent rays together instead).
+void intersect_batch_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray *rays,
+                           aacbvh_hit *hits, size_t count) {
+    for (size_t i = 0; i < count; ++i) intersect_entry(wide, bvh, geometry, rays[i], hits[i]);
+}
+#endif

@@ -172,7 +172,187 @@ struct PacketPlanes;
 [[gnu::always_inline]] inline void plane_distances(const TrianglePacket *p, unsigned lanes, const TriangleRay &r,
                                                    PacketPlanes &out);
 
+#define AACBVH_WIDE8_PACKETS 1
 #include "trace/wide8_kernel.inl"
+
+/// Eight rays traced together for their closest hits (ray_packet_entry()):
+/// a lane a ray.
+constexpr int kPacketRays = 8;
+
+/// The rows of eight rays of one octant whose windows start at 0 or later,
+/// one ray a lane: each lane holds what make_node_ray() broadcasts for its ray.
+struct RayLanes {
+    long near[3], far[3]; ///< shared: one octant
+    __m256 neg_org[3], inv[3], inv_far[3], tmin;
+};
+
+/// A pending child of a ray packet, with each lane's entry distance.
+struct PacketEntry {
+    uint32_t child, count;
+    uint32_t lanes; ///< bit i: ray i enters the child
+    float t[kPacketRays];
+};
+
+/// Whether rays[0, 8) can be traced as one packet: each plain (no scaling),
+/// its window from 0 or later, all directions with the same signs.
+inline bool packet_eligible(const aacbvh_ray *rays) {
+    const __m128 sign0 = _mm_loadu_ps(rays[0].dir);
+    const int octant = _mm_movemask_ps(sign0) & 7;
+    for (int i = 0; i < kPacketRays; ++i) {
+        if (!ray_is_plain(rays[i]) || !(rays[i].tmin >= 0.0f)) return false;
+        if ((_mm_movemask_ps(_mm_loadu_ps(rays[i].dir)) & 7) != octant) return false;
+    }
+    return true;
+}
+
+inline RayLanes make_ray_lanes(const aacbvh_ray *rays) {
+    alignas(32) float o[3][kPacketRays], d[3][kPacketRays], tmin[kPacketRays];
+    for (int i = 0; i < kPacketRays; ++i) {
+        for (int a = 0; a < 3; ++a) {
+            o[a][i] = rays[i].org[a];
+            d[a][i] = rays[i].dir[a];
+        }
+        tmin[i] = rays[i].tmin;
+    }
+    RayLanes w;
+    const int neg = _mm_movemask_ps(_mm_loadu_ps(rays[0].dir));
+    for (int a = 0; a < 3; ++a) {
+        const long n = long((neg >> a) & 1);
+        w.near[a] = 2 * a + n;
+        w.far[a] = 2 * a + 1 - n;
+        // The same operations as make_node_ray(), lane for lane.
+        w.inv[a] = _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_load_ps(d[a]));
+        w.inv_far[a] = _mm256_mul_ps(w.inv[a], _mm256_set1_ps(kFarScale));
+        w.neg_org[a] = _mm256_xor_ps(_mm256_load_ps(o[a]), _mm256_set1_ps(-0.0f));
+    }
+    w.tmin = _mm256_load_ps(tmin);
+    return w;
+}
+
+/// Child k of `node` against the packet: test_children<true, ...>()'s test
+/// of that child, lane for lane with the rays in the lanes (the same
+/// operations in the same order); each lane's clipped entry into `entry`.
+[[gnu::always_inline]] inline unsigned test_child_lanes(const Wide8Node &node, int k, const RayLanes &r,
+                                                        __m256 bound, __m256 &entry) {
+    const __m256 nx = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(&node.box[r.near[0]][k]), r.neg_org[0]), r.inv[0]);
+    const __m256 ny = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(&node.box[r.near[1]][k]), r.neg_org[1]), r.inv[1]);
+    const __m256 nz = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(&node.box[r.near[2]][k]), r.neg_org[2]), r.inv[2]);
+    __m256 a = _mm256_max_ps(nx, r.tmin);
+    a = _mm256_max_ps(ny, a);
+    a = _mm256_max_ps(nz, a);
+    const __m256 fx = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(&node.box[r.far[0]][k]), r.neg_org[0]), r.inv_far[0]);
+    const __m256 fy = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(&node.box[r.far[1]][k]), r.neg_org[1]), r.inv_far[1]);
+    const __m256 fz = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(&node.box[r.far[2]][k]), r.neg_org[2]), r.inv_far[2]);
+    __m256 b = _mm256_min_ps(fx, bound);
+    b = _mm256_min_ps(fy, b);
+    b = _mm256_min_ps(fz, b);
+    entry = a;
+    return unsigned(_mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OS)));
+}
+
+/// Closest hits of rays[0, 8) (packet_eligible()) over a tree with packet
+/// leaves, walked together: a child is visited for the lanes whose own
+/// node test (test_child_lanes(), the single ray's) lets them in, a packet
+/// leaf tested by each such lane's own test_packets(), and a pending child
+/// skipped for the lanes whose closest hit now lies before their entry.
+/// Each ray keeps its own record, every box test passes the boxes the
+/// single ray's would, and the closest hit does not depend on the visiting
+/// order (trace/hit_record.h): the answers are intersect_entry()'s.
+void intersect_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, aacbvh_hit *hits) {
+    const RayLanes r = make_ray_lanes(rays);
+    TriangleRay tray[kPacketRays];
+    PacketRay pray[kPacketRays];
+    HitRecord<false> best[kPacketRays] = {HitRecord<false>(rays[0].tmax), HitRecord<false>(rays[1].tmax),
+                                          HitRecord<false>(rays[2].tmax), HitRecord<false>(rays[3].tmax),
+                                          HitRecord<false>(rays[4].tmax), HitRecord<false>(rays[5].tmax),
+                                          HitRecord<false>(rays[6].tmax), HitRecord<false>(rays[7].tmax)};
+    alignas(32) float reach[kPacketRays];
+    for (int i = 0; i < kPacketRays; ++i) {
+        tray[i] = make_triangle_ray(rays[i].org, rays[i].dir);
+        pray[i] = make_packet_ray(tray[i]);
+        reach[i] = best[i].reach();
+    }
+    __m256 bound = _mm256_load_ps(reach);
+    const Wide8Node *nodes = wide.nodes();
+    const TrianglePacket *packets = wide.packets();
+    SpillBlock<PacketEntry> spill;
+    SpillStack<PacketEntry, 192> stack(spill);
+    PacketEntry current{0u, 0u, (1u << kPacketRays) - 1, {0, 0, 0, 0, 0, 0, 0, 0}};
+    for (;;) {
+        if (current.count == 0) {
+            const Wide8Node &node = nodes[current.child];
+            const int lead = __builtin_ctz(current.lanes);
+            uint32_t key[8];
+            alignas(32) float entry[8][kPacketRays];
+            unsigned lanes[8];
+            int n = 0;
+            for (int k = 0; k < 8; ++k) {
+                if (node.child[k] == Wide8Node::kEmptyChild) break; // children fill the lowest slots
+                __m256 a;
+                const unsigned m = test_child_lanes(node, k, r, bound, a) & current.lanes;
+                if (m == 0) continue;
+                _mm256_store_ps(entry[k], a);
+                lanes[k] = m;
+                // Near to far by the lead lane's entry (the lowest lane the
+                // parent let in; a child it misses goes by its own lowest).
+                const int by = ((m >> lead) & 1u) ? lead : __builtin_ctz(m);
+                const uint32_t kk = order_key8(entry[k][by]) | (7u - unsigned(k));
+                int j = n++;
+                while (j > 0 && key[j - 1] > kk) {
+                    key[j] = key[j - 1];
+                    --j;
+                }
+                key[j] = kk;
+            }
+            if (n != 0) {
+                stack.reserve(size_t(n));
+                for (int j = n; j-- > 0;) {
+                    const unsigned k = ~key[j] & 7u;
+                    PacketEntry e{node.child[k], node.count[k], lanes[k], {}};
+                    std::memcpy(e.t, entry[k], sizeof e.t);
+                    stack.push_within(e);
+                    prefetch_child(nodes, packets, node.child[k], node.count[k]);
+                }
+            }
+        } else {
+            for (unsigned left = current.lanes; left != 0; left &= left - 1) {
+                const int i = __builtin_ctz(left);
+                test_packets<false>(packets + current.child, current.count, tray[i], pray[i], rays[i].tmin, best[i]);
+                reach[i] = best[i].reach();
+            }
+            bound = _mm256_load_ps(reach);
+        }
+        // The next pending child with a lane that can still find a nearer hit in it.
+        for (;;) {
+            if (stack.empty()) {
+                for (int i = 0; i < kPacketRays; ++i)
+                    write_closest(best[i].found, best[i].tmax, best[i].u, best[i].v, best[i].prim, hits[i]);
+                return;
+            }
+            current = stack.pop();
+            current.lanes &= unsigned(_mm256_movemask_ps(_mm256_cmp_ps(_mm256_loadu_ps(current.t), bound, _CMP_LE_OQ)));
+            if (current.lanes != 0) break;
+        }
+    }
+}
+
+/// intersect_entry() over rays[0, count) into hits[0, count): runs of
+/// eight rays that packet_eligible() takes are traced together
+/// (intersect_packet()), the others one by one.
+void intersect_batch_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray *rays,
+                           aacbvh_hit *hits, size_t count) {
+    const bool packets = wide.node_count() != 0 && wide.has_packets() && geometry.kind == GeometryKind::Triangles;
+    size_t i = 0;
+    if (packets)
+        for (; i + kPacketRays <= count; i += kPacketRays) {
+            if (packet_eligible(rays + i)) {
+                intersect_packet(wide, rays + i, hits + i);
+                continue;
+            }
+            for (int k = 0; k < kPacketRays; ++k) intersect_entry(wide, bvh, geometry, rays[i + k], hits[i + k]);
+        }
+    for (; i < count; ++i) intersect_entry(wide, bvh, geometry, rays[i], hits[i]);
+}
 
 /// A packet row (four floats) in double: exact.
 inline __m256d double_row(const float *row) { return _mm256_cvtps_pd(_mm_load_ps(row)); }
@@ -260,7 +440,7 @@ inline __m256i sort_layer(__m256i x, __m256i partner) {
 } // namespace
 } // namespace wide8_avx2
 
-extern const Wide8Kernel kWide8Avx2 = {wide8_avx2::intersect_entry, wide8_avx2::occluded_entry,
+extern const Wide8Kernel kWide8Avx2 = {wide8_avx2::intersect_entry, wide8_avx2::intersect_batch_entry, wide8_avx2::occluded_entry,
                                        wide8_avx2::intersect_counted_entry};
 
 } // namespace aacbvh

@@ -1,8 +1,11 @@
 // Ray queries over the 8-wide layout (bvh/wide8_bvh.h), with kernels chosen
 // at run time from the CPU: a plain C++ one that builds anywhere, SSE2 (the
 // x86-64 baseline) and AVX2. Every kernel does the same floating-point
-// operations in the same order, so all give the same hits bit for bit; the
-// tests force each in turn (set_trace_kernel) on any host that can run it.
+// operations in the same order for each ray and box, so all give the same
+// hits bit for bit (the AVX2 kernel's batches trace runs of eight coherent
+// rays together: the same tests in another order, and a closest hit does not
+// depend on the order); the tests force each in turn (set_trace_kernel) on
+// any host that can run it.
 #pragma once
 
 #include "aacbvh/aacbvh.h"
@@ -42,6 +45,10 @@ void intersect_ray_wide8_counted(const Wide8Bvh &wide, const Bvh &bvh, const Geo
 /// One kernel's entry points (each kernel's file defines one).
 struct Wide8Kernel {
     void (*intersect)(const Wide8Bvh &, const Bvh &, const Geometry &, const aacbvh_ray &, aacbvh_hit &);
+    /// intersect() of rays[0, count) into hits[0, count), the same answers;
+    /// a kernel may trace runs of coherent rays together.
+    void (*intersect_batch)(const Wide8Bvh &, const Bvh &, const Geometry &, const aacbvh_ray *rays, aacbvh_hit *hits,
+                            size_t count);
     bool (*occluded)(const Wide8Bvh &, const Bvh &, const Geometry &, const aacbvh_ray &);
     void (*intersect_counted)(const Wide8Bvh &, const Bvh &, const Geometry &, const aacbvh_ray &, aacbvh_hit &,
                               TraversalCounters &);
