@@ -41,6 +41,17 @@ aacbvh_bvh *make(aacbvh_context *ctx, aacbvh_layout layout, aacbvh_triangle_stor
     return bvh;
 }
 
+/// The binary reference and the default 8-wide handle (AAC-HQ, triangles
+/// copied) over `mesh`, built.
+void make_built_pair(aacbvh_context *ctx, const ts_mesh &mesh, aacbvh_bvh *&ref, aacbvh_bvh *&wide) {
+    ref = make(ctx, AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_REFERENCED, AACBVH_BUILDER_AAC_HQ);
+    wide = make(ctx, AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED, AACBVH_BUILDER_AAC_HQ);
+    for (aacbvh_bvh *b : {ref, wide}) {
+        ts_set_mesh(b, &mesh);
+        TS_EXPECT_STATUS(aacbvh_bvh_build(b), AACBVH_OK);
+    }
+}
+
 /// Every available kernel against the binary reference on the same rays.
 /// Returns how many kernels ran.
 int compare_kernels(const aacbvh_bvh *reference, const aacbvh_bvh *wide, const aacbvh_ray *rays, size_t count,
@@ -158,12 +169,8 @@ void test_rays_from_outside(void **) {
     assert_true(ts_make_scene(TS_SCENE_RANDOM, 600, 31, &mesh));
     aacbvh_context *ctx = nullptr;
     TS_EXPECT_STATUS(aacbvh_context_create(1, &ctx), AACBVH_OK);
-    aacbvh_bvh *ref = make(ctx, AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_REFERENCED, AACBVH_BUILDER_AAC_HQ);
-    aacbvh_bvh *wide = make(ctx, AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED, AACBVH_BUILDER_AAC_HQ);
-    for (aacbvh_bvh *b : {ref, wide}) {
-        ts_set_mesh(b, &mesh);
-        TS_EXPECT_STATUS(aacbvh_bvh_build(b), AACBVH_OK);
-    }
+    aacbvh_bvh *ref = nullptr, *wide = nullptr;
+    make_built_pair(ctx, mesh, ref, wide);
     const size_t count = TS_RAYS(4000);
     std::vector<aacbvh_ray> rays(count);
     for (int round = 0; round < 2; ++round) {
@@ -269,12 +276,8 @@ void test_pixel_runs(void **) {
         assert_true(ts_make_scene(ts_scene_kind(kind), 1500, 900 + kind, &mesh));
         aacbvh_context *ctx = nullptr;
         TS_EXPECT_STATUS(aacbvh_context_create(1, &ctx), AACBVH_OK);
-        aacbvh_bvh *ref = make(ctx, AACBVH_LAYOUT_BINARY, AACBVH_TRIANGLES_REFERENCED, AACBVH_BUILDER_AAC_HQ);
-        aacbvh_bvh *wide = make(ctx, AACBVH_LAYOUT_WIDE8, AACBVH_TRIANGLES_COPIED, AACBVH_BUILDER_AAC_HQ);
-        for (aacbvh_bvh *b : {ref, wide}) {
-            ts_set_mesh(b, &mesh);
-            TS_EXPECT_STATUS(aacbvh_bvh_build(b), AACBVH_OK);
-        }
+        aacbvh_bvh *ref = nullptr, *wide = nullptr;
+        make_built_pair(ctx, mesh, ref, wide);
         float lo[3], hi[3];
         ts_coords_bounds(mesh.vertices, 3 * mesh.vertex_count, lo, hi);
         ts_rng rng;
