@@ -175,7 +175,7 @@ struct PacketPlanes;
 #define AACBVH_WIDE8_PACKETS 1
 #include "trace/wide8_kernel.inl"
 
-/// Eight rays traced together for their closest hits (ray_packet_entry()):
+/// Eight rays traced together for their closest hits (intersect_packet()):
 /// a lane a ray.
 constexpr int kPacketRays = 8;
 
@@ -205,6 +205,7 @@ inline bool packet_eligible(const aacbvh_ray *rays) {
     return true;
 }
 
+/// The lanes of rays[0, 8) (packet_eligible()).
 inline RayLanes make_ray_lanes(const aacbvh_ray *rays) {
     alignas(32) float o[3][kPacketRays], d[3][kPacketRays], tmin[kPacketRays];
     for (int i = 0; i < kPacketRays; ++i) {
