@@ -625,7 +625,7 @@ void BvhObject::occluded(const aacbvh_ray *rays, uint8_t *out, size_t count) con
     if (wide8_.built()) {
         const Wide8Kernel &kernel = wide8_kernel();
         scheduler_.parallel_for(0, count, 256, [&](size_t b, size_t e) {
-            for (size_t i = b; i < e; ++i) out[i] = kernel.occluded(wide8_, bvh_, geometry_, rays[i]) ? 1 : 0;
+            kernel.occluded_batch(wide8_, bvh_, geometry_, rays + b, out + b, e - b);
         });
         return;
     }

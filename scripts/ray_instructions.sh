@@ -13,11 +13,11 @@
 # and prints the instructions of the 8-wide kernel's entry points (the one the
 # CPU picked: wide8_avx2 on an AVX2 machine; valgrind has no AVX-512),
 # inclusive of everything they call, for closest-hit rays (primary and
-# diffuse together: the batch entry point, which traces runs of eight
-# coherent rays together where the kernel can) and any-hit rays (shadow),
-# and the same per ray (closest hit: over the rays the program traced, from
-# the counts in its log; any hit: over the entry point's calls, one a ray,
-# counted by callgrind). The
+# diffuse together) and any-hit rays (shadow), through the batch entry
+# points (which trace runs of eight coherent rays together where the kernel
+# can), and the same per ray traced (from the ray counts in the program's
+# log: an untimed pass and one timed run of each kind, and the primary rays
+# once more for the secondary rays' origins). The
 # counts depend on the compiler, the kernel and the tree, not on the machine's
 # load: compare two builds on the same machine.
 #
@@ -52,10 +52,12 @@ for scene in "$@"; do
   # one timed run, and the primary rays once more for the secondary rays'
   # origins.
   closest_rays=$(awk '$2 == "primary" { n += 3 * $3 } $2 == "diffuse" { n += 2 * $3 } END { print n + 0 }' "$out/log")
-  # Each entry point's inclusive instructions and its calls (one a ray),
-  # summed over its callers in the caller tree.
+  # Any-hit rays traced: the shadow rays, an untimed pass and one timed run.
+  anyhit_rays=$(awk '$2 == "shadow" { n += 2 * $3 } END { print n + 0 }' "$out/log")
+  # Each entry point's inclusive instructions, and its calls (Embree's: one
+  # a ray), summed over its callers in the caller tree.
   callgrind_annotate --tree=caller --inclusive=yes --threshold=100 "$out/cg" 2> /dev/null |
-    awk -v scene="$scene" -v closest_rays="$closest_rays" '
+    awk -v scene="$scene" -v closest_rays="$closest_rays" -v anyhit_rays="$anyhit_rays" '
       function ncalls(s,   k, parts, i, f) {
         k = split(s, parts, "(")
         for (i = k; i >= 1; i--)
@@ -73,9 +75,9 @@ for scene in "$@"; do
       }
       /^ *$/ { n = 0; next }
       / < / { calls[n++] = ncalls($0); next }
-      /\* .*wide8_[a-z0-9]+::.*(intersect_batch|occluded)_entry\(/ {
+      /\* .*wide8_[a-z0-9]+::.*(intersect|occluded)_batch_entry\(/ {
         if (!block()) next
-        if ($0 ~ /intersect_batch_entry/) { c = x; cr = closest_rays } else { a = x; ar = s }
+        if ($0 ~ /intersect_batch_entry/) { c = x; cr = closest_rays } else { a = x; ar = anyhit_rays }
         next
       }
       # Embree entry points (exported), inclusive of its kernels.

@@ -229,7 +229,9 @@ void test_rays_from_outside(void **) {
 /// component of zero (its sign kept, so the run keeps its octant), and, in
 /// some runs, a window from below 0 or a lane of another octant (the kernel
 /// then traces the run ray by ray). Every kernel must answer each ray like
-/// the binary traversal, on every scene kind, with packet leaves.
+/// the binary traversal, closest hit and occlusion, on every scene kind, with
+/// packet leaves; then the same for runs of shadow rays (fill_shadow_runs()),
+/// which the AVX2 kernel's any-hit queries trace together.
 void fill_pixel_runs(const float lo[3], const float hi[3], ts_rng &rng, std::vector<aacbvh_ray> &rays) {
     for (size_t run = 0; run + 8 <= rays.size(); run += 8) {
         float eye[3], dir[3], step[3];
@@ -269,6 +271,48 @@ void fill_pixel_runs(const float lo[3], const float hi[3], ts_rng &rng, std::vec
     }
 }
 
+/// Runs of eight shadow rays, as a renderer makes them for the hits of
+/// neighbouring pixels: from eight points of one triangle (where the rays
+/// start on the surface they leave) toward one light, windows [0, 1) up to
+/// the light. Some lanes are made hard as in fill_pixel_runs().
+void fill_shadow_runs(const ts_mesh &mesh, const float lo[3], const float hi[3], ts_rng &rng,
+                      std::vector<aacbvh_ray> &rays) {
+    float light[3];
+    for (int k = 0; k < 3; ++k) {
+        const float extent = hi[k] - lo[k] > 0.0f ? hi[k] - lo[k] : 1.0f;
+        light[k] = ts_rng_range(&rng, lo[k] - 0.5f * extent, hi[k] + 0.5f * extent);
+    }
+    const uint32_t triangles = uint32_t(mesh.triangle_count);
+    for (size_t run = 0; run + 8 <= rays.size(); run += 8) {
+        const uint32_t *tri = &mesh.indices[3 * size_t(ts_rng_below(&rng, triangles))];
+        const float *v0 = &mesh.vertices[3 * size_t(tri[0])], *v1 = &mesh.vertices[3 * size_t(tri[1])],
+                    *v2 = &mesh.vertices[3 * size_t(tri[2])];
+        for (int i = 0; i < 8; ++i) {
+            aacbvh_ray &r = rays[run + i];
+            float b1 = ts_rng_range(&rng, 0.0f, 1.0f), b2 = ts_rng_range(&rng, 0.0f, 1.0f);
+            if (b1 + b2 > 1.0f) {
+                b1 = 1.0f - b1;
+                b2 = 1.0f - b2;
+            }
+            for (int k = 0; k < 3; ++k) {
+                r.org[k] = v0[k] + b1 * (v1[k] - v0[k]) + b2 * (v2[k] - v0[k]);
+                r.dir[k] = light[k] - r.org[k];
+            }
+            if (r.dir[0] == 0.0f && r.dir[1] == 0.0f && r.dir[2] == 0.0f) r.dir[0] = 1.0f;
+            r.tmin = 0.0f;
+            r.tmax = 0.9999f;
+            if (ts_rng_below(&rng, 4) != 0) continue;
+            switch (ts_rng_below(&rng, 4)) {
+            case 0: r.tmax = ts_rng_range(&rng, 0.0f, 0.1f); break;
+            case 1: r.tmin = ts_rng_range(&rng, 0.0f, 1e-3f); break;
+            case 2: r.dir[ts_rng_below(&rng, 3)] = std::copysign(0.0f, r.dir[0] + r.dir[1] + r.dir[2]); break;
+            default: r.tmax = INFINITY; break;
+            }
+            if (r.dir[0] == 0.0f && r.dir[1] == 0.0f && r.dir[2] == 0.0f) r.dir[0] = 1.0f;
+        }
+    }
+}
+
 void test_pixel_runs(void **) {
     const size_t count = TS_RAYS(4000) & ~size_t(7);
     for (int kind = 0; kind < TS_SCENE_KIND_COUNT; ++kind) {
@@ -287,6 +331,11 @@ void test_pixel_runs(void **) {
         char what[96];
         std::snprintf(what, sizeof what, "runs of eight pixels, %s", ts_scene_name(ts_scene_kind(kind)));
         assert_true(compare_kernels(ref, wide, rays.data(), count, what) >= 1);
+        if (mesh.triangle_count != 0) {
+            fill_shadow_runs(mesh, lo, hi, rng, rays);
+            std::snprintf(what, sizeof what, "runs of eight shadow rays, %s", ts_scene_name(ts_scene_kind(kind)));
+            assert_true(compare_kernels(ref, wide, rays.data(), count, what) >= 1);
+        }
         aacbvh_bvh_destroy(ref);
         aacbvh_bvh_destroy(wide);
         aacbvh_context_destroy(ctx);

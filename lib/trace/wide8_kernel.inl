@@ -327,4 +327,11 @@ void intersect_batch_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry 
                            aacbvh_hit *hits, size_t count) {
     for (size_t i = 0; i < count; ++i) intersect_entry(wide, bvh, geometry, rays[i], hits[i]);
 }
+
+/// occluded_entry() over rays[0, count) into out[0, count) (1: occluded),
+/// one by one.
+void occluded_batch_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray *rays,
+                          uint8_t *out, size_t count) {
+    for (size_t i = 0; i < count; ++i) out[i] = occluded_entry(wide, bvh, geometry, rays[i]) ? 1 : 0;
+}
 #endif

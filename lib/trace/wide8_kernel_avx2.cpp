@@ -337,6 +337,94 @@ void intersect_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, aacbvh_hit *
     }
 }
 
+/// A pending child of an any-hit ray packet.
+struct AnyPacketEntry {
+    uint32_t child, count;
+    uint32_t lanes; ///< bit i: ray i enters the child
+};
+
+/// Any hits of rays[0, 8) (packet_eligible()) over a tree with packet
+/// leaves into out[0, 8), walked together as intersect_packet() walks them:
+/// a lane leaves the packet at its first hit; no child order (the largest
+/// box first, as the single ray's any-hit walk goes) and no pruning but the
+/// node tests' (an any-hit window never shrinks). The answers are
+/// occluded_entry()'s: every box the single ray would enter is entered, and
+/// whether some triangle is hit does not depend on the visiting order.
+void occluded_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, uint8_t *out) {
+    const RayLanes r = make_ray_lanes(rays);
+    TriangleRay tray[kPacketRays];
+    PacketRay pray[kPacketRays];
+    alignas(32) float reach[kPacketRays];
+    for (int i = 0; i < kPacketRays; ++i) {
+        tray[i] = make_triangle_ray(rays[i].org, rays[i].dir);
+        pray[i] = make_packet_ray(tray[i]);
+        reach[i] = HitRecord<true>(rays[i].tmax).reach();
+        out[i] = 0;
+    }
+    const __m256 bound = _mm256_load_ps(reach);
+    const Wide8Node *nodes = wide.nodes();
+    const TrianglePacket *packets = wide.packets();
+    SpillBlock<AnyPacketEntry> spill;
+    SpillStack<AnyPacketEntry, 192> stack(spill);
+    unsigned live = (1u << kPacketRays) - 1;
+    AnyPacketEntry current{0u, 0u, live};
+    for (;;) {
+        if (current.count == 0) {
+            const Wide8Node &node = nodes[current.child];
+            unsigned lanes[8];
+            unsigned hit = 0;
+            for (int k = 0; k < 8; ++k) {
+                if (node.child[k] == Wide8Node::kEmptyChild) break; // children fill the lowest slots
+                __m256 a;
+                lanes[k] = test_child_lanes(node, k, r, bound, a) & current.lanes;
+                hit |= (lanes[k] != 0 ? 1u : 0u) << k;
+            }
+            if (hit != 0) {
+                stack.reserve(8);
+                for (int k = 7; k >= 0; --k) // the largest box (lane 0) on top
+                    if ((hit >> k) & 1u) {
+                        stack.push_within(AnyPacketEntry{node.child[k], node.count[k], lanes[k]});
+                        prefetch_child(nodes, packets, node.child[k], node.count[k]);
+                    }
+            }
+        } else {
+            for (unsigned left = current.lanes; left != 0; left &= left - 1) {
+                const int i = __builtin_ctz(left);
+                HitRecord<true> best(rays[i].tmax);
+                if (test_packets<true>(packets + current.child, current.count, tray[i], pray[i], rays[i].tmin,
+                                       best)) {
+                    out[i] = 1;
+                    live &= ~(1u << i);
+                }
+            }
+            if (live == 0) return;
+        }
+        do {
+            if (stack.empty()) return;
+            current = stack.pop();
+            current.lanes &= live;
+        } while (current.lanes == 0);
+    }
+}
+
+/// occluded_entry() over rays[0, count) into out[0, count): runs of eight
+/// rays that packet_eligible() takes are traced together
+/// (occluded_packet()), the others one by one.
+void occluded_batch_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray *rays,
+                          uint8_t *out, size_t count) {
+    const bool packets = wide.node_count() != 0 && wide.has_packets() && geometry.kind == GeometryKind::Triangles;
+    size_t i = 0;
+    if (packets)
+        for (; i + kPacketRays <= count; i += kPacketRays) {
+            if (packet_eligible(rays + i)) {
+                occluded_packet(wide, rays + i, out + i);
+                continue;
+            }
+            for (int k = 0; k < kPacketRays; ++k) out[i + k] = occluded_entry(wide, bvh, geometry, rays[i + k]) ? 1 : 0;
+        }
+    for (; i < count; ++i) out[i] = occluded_entry(wide, bvh, geometry, rays[i]) ? 1 : 0;
+}
+
 /// intersect_entry() over rays[0, count) into hits[0, count): runs of
 /// eight rays that packet_eligible() takes are traced together
 /// (intersect_packet()), the others one by one.
@@ -441,7 +529,7 @@ inline __m256i sort_layer(__m256i x, __m256i partner) {
 } // namespace
 } // namespace wide8_avx2
 
-extern const Wide8Kernel kWide8Avx2 = {wide8_avx2::intersect_entry, wide8_avx2::intersect_batch_entry, wide8_avx2::occluded_entry,
+extern const Wide8Kernel kWide8Avx2 = {wide8_avx2::intersect_entry, wide8_avx2::intersect_batch_entry, wide8_avx2::occluded_entry, wide8_avx2::occluded_batch_entry,
                                        wide8_avx2::intersect_counted_entry};
 
 } // namespace aacbvh

@@ -119,7 +119,7 @@ int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]) { return s
 } // namespace
 } // namespace wide8_scalar
 
-extern const Wide8Kernel kWide8Scalar = {wide8_scalar::intersect_entry, wide8_scalar::intersect_batch_entry, wide8_scalar::occluded_entry,
+extern const Wide8Kernel kWide8Scalar = {wide8_scalar::intersect_entry, wide8_scalar::intersect_batch_entry, wide8_scalar::occluded_entry, wide8_scalar::occluded_batch_entry,
                                          wide8_scalar::intersect_counted_entry};
 
 } // namespace aacbvh

@@ -108,7 +108,7 @@ int sort_hits(unsigned mask, const float t_entry[8], uint32_t key[8]) { return s
 } // namespace
 } // namespace wide8_sse2
 
-extern const Wide8Kernel kWide8Sse2 = {wide8_sse2::intersect_entry, wide8_sse2::intersect_batch_entry, wide8_sse2::occluded_entry,
+extern const Wide8Kernel kWide8Sse2 = {wide8_sse2::intersect_entry, wide8_sse2::intersect_batch_entry, wide8_sse2::occluded_entry, wide8_sse2::occluded_batch_entry,
                                        wide8_sse2::intersect_counted_entry};
 
 } // namespace aacbvh

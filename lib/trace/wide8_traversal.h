@@ -50,6 +50,10 @@ struct Wide8Kernel {
     void (*intersect_batch)(const Wide8Bvh &, const Bvh &, const Geometry &, const aacbvh_ray *rays, aacbvh_hit *hits,
                             size_t count);
     bool (*occluded)(const Wide8Bvh &, const Bvh &, const Geometry &, const aacbvh_ray &);
+    /// occluded() of rays[0, count) into out[0, count) (1: occluded), the
+    /// same answers; a kernel may trace runs of coherent rays together.
+    void (*occluded_batch)(const Wide8Bvh &, const Bvh &, const Geometry &, const aacbvh_ray *rays, uint8_t *out,
+                           size_t count);
     void (*intersect_counted)(const Wide8Bvh &, const Bvh &, const Geometry &, const aacbvh_ray &, aacbvh_hit &,
                               TraversalCounters &);
 };
