@@ -407,40 +407,54 @@ void occluded_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, uint8_t *out)
     }
 }
 
-/// occluded_entry() over rays[0, count) into out[0, count): runs of eight
-/// rays that packet_eligible() takes are traced together
-/// (occluded_packet()), the others one by one.
-void occluded_batch_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray *rays,
-                          uint8_t *out, size_t count) {
-    const bool packets = wide.node_count() != 0 && wide.has_packets() && geometry.kind == GeometryKind::Triangles;
-    size_t i = 0;
-    if (packets)
-        for (; i + kPacketRays <= count; i += kPacketRays) {
-            if (packet_eligible(rays + i)) {
-                occluded_packet(wide, rays + i, out + i);
-                continue;
-            }
-            for (int k = 0; k < kPacketRays; ++k) out[i + k] = occluded_entry(wide, bvh, geometry, rays[i + k]) ? 1 : 0;
-        }
-    for (; i < count; ++i) out[i] = occluded_entry(wide, bvh, geometry, rays[i]) ? 1 : 0;
+/// One run of eight rays traced together, or one ray alone, into closest
+/// hits or occlusion flags (1: occluded): trace_runs()'s two steps.
+inline void trace_run(const Wide8Bvh &wide, const aacbvh_ray *rays, aacbvh_hit *hits) {
+    intersect_packet(wide, rays, hits);
+}
+inline void trace_run(const Wide8Bvh &wide, const aacbvh_ray *rays, uint8_t *out) { occluded_packet(wide, rays, out); }
+inline void trace_one(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
+                      aacbvh_hit &hit) {
+    intersect_entry(wide, bvh, geometry, ray, hit);
+}
+inline void trace_one(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
+                      uint8_t &out) {
+    out = occluded_entry(wide, bvh, geometry, ray) ? 1 : 0;
 }
 
-/// intersect_entry() over rays[0, count) into hits[0, count): runs of
-/// eight rays that packet_eligible() takes are traced together
-/// (intersect_packet()), the others one by one.
-void intersect_batch_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray *rays,
-                           aacbvh_hit *hits, size_t count) {
+/// The batch entry points over rays[0, count) into out[0, count): each run
+/// of eight rays that packet_eligible() takes is traced together
+/// (intersect_packet() or occluded_packet()), every other ray alone. Runs
+/// start at the batch's first ray (a batch call's chunks are multiples of
+/// eight).
+template <class Out>
+inline void trace_runs(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray *rays,
+                       Out *out, size_t count) {
     const bool packets = wide.node_count() != 0 && wide.has_packets() && geometry.kind == GeometryKind::Triangles;
     size_t i = 0;
     if (packets)
         for (; i + kPacketRays <= count; i += kPacketRays) {
             if (packet_eligible(rays + i)) {
-                intersect_packet(wide, rays + i, hits + i);
+                trace_run(wide, rays + i, out + i);
                 continue;
             }
-            for (int k = 0; k < kPacketRays; ++k) intersect_entry(wide, bvh, geometry, rays[i + k], hits[i + k]);
+            for (size_t k = i; k < i + kPacketRays; ++k) trace_one(wide, bvh, geometry, rays[k], out[k]);
         }
-    for (; i < count; ++i) intersect_entry(wide, bvh, geometry, rays[i], hits[i]);
+    for (; i < count; ++i) trace_one(wide, bvh, geometry, rays[i], out[i]);
+}
+
+/// intersect_entry() over rays[0, count) into hits[0, count), runs of
+/// coherent rays together (trace_runs()).
+void intersect_batch_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray *rays,
+                           aacbvh_hit *hits, size_t count) {
+    trace_runs(wide, bvh, geometry, rays, hits, count);
+}
+
+/// occluded_entry() over rays[0, count) into out[0, count), runs of
+/// coherent rays together (trace_runs()).
+void occluded_batch_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray *rays,
+                          uint8_t *out, size_t count) {
+    trace_runs(wide, bvh, geometry, rays, out, count);
 }
 
 /// A packet row (four floats) in double: exact.
