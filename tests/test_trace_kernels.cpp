@@ -274,7 +274,8 @@ void fill_pixel_runs(const float lo[3], const float hi[3], ts_rng &rng, std::vec
 /// Runs of eight shadow rays, as a renderer makes them for the hits of
 /// neighbouring pixels: from eight points of one triangle (where the rays
 /// start on the surface they leave) toward one light, windows [0, 1) up to
-/// the light. Some lanes are made hard as in fill_pixel_runs().
+/// the light. A quarter of the lanes get a short, late or open window or a
+/// direction component of zero (its sign kept).
 void fill_shadow_runs(const ts_mesh &mesh, const float lo[3], const float hi[3], ts_rng &rng,
                       std::vector<aacbvh_ray> &rays) {
     float light[3];

@@ -358,7 +358,7 @@ void occluded_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, uint8_t *out)
     for (int i = 0; i < kPacketRays; ++i) {
         tray[i] = make_triangle_ray(rays[i].org, rays[i].dir);
         pray[i] = make_packet_ray(tray[i]);
-        reach[i] = HitRecord<true>(rays[i].tmax).reach();
+        reach[i] = exit_reach(rays[i].tmax); // never shrinks: the first hit ends a lane
         out[i] = 0;
     }
     const __m256 bound = _mm256_load_ps(reach);
