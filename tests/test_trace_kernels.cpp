@@ -228,7 +228,11 @@ void test_rays_from_outside(void **) {
 /// starts late or after it ends, a lane that repeats another, a direction
 /// component of zero (its sign kept, so the run keeps its octant), and, in
 /// some runs, a window from below 0 or a lane of another octant (the kernel
-/// then traces the run ray by ray). Every kernel must answer each ray like
+/// then traces the run ray by ray). Runs from one eye whose directions have
+/// no zero component take the kernel's test of a node against the whole
+/// run first (packet_candidates()): its bounds over the lanes' directions,
+/// windows (tmin) and reaches must keep every child a lane enters (a bound
+/// from one lane alone fails here). Every kernel must answer each ray like
 /// the binary traversal, closest hit and occlusion, on every scene kind, with
 /// packet leaves; then the same for runs of shadow rays (fill_shadow_runs()),
 /// which the AVX2 kernel's any-hit queries trace together.

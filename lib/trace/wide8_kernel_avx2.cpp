@@ -251,11 +251,94 @@ inline RayLanes make_ray_lanes(const aacbvh_ray *rays) {
     return unsigned(_mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OS)));
 }
 
+/// The smallest and largest lane of v.
+inline float lane_min(__m256 v) {
+    __m128 m = _mm_min_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+    m = _mm_min_ps(m, _mm_movehl_ps(m, m));
+    return _mm_cvtss_f32(_mm_min_ss(m, _mm_shuffle_ps(m, m, 1)));
+}
+inline float lane_max(__m256 v) {
+    __m128 m = _mm_max_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+    m = _mm_max_ps(m, _mm_movehl_ps(m, m));
+    return _mm_cvtss_f32(_mm_max_ss(m, _mm_shuffle_ps(m, m, 1)));
+}
+
+/// What a packet of rays from one origin (camera rays) has in common, for
+/// a test of a node's eight children at once against all of its rays
+/// (packet_candidates()): the origin, for each axis the range of the lanes'
+/// 1 / dir and of its far form, and the smallest tmin. `usable` where the
+/// rays share their origin and every 1 / dir is finite (no direction
+/// component zero or denormal), so that no product in the test is NaN.
+struct PacketBounds {
+    __m256 neg_org[3];
+    __m256 inv_lo[3], inv_hi[3], inv_far_lo[3], inv_far_hi[3];
+    __m256 tmin_lo;
+    bool usable;
+};
+
+inline PacketBounds make_packet_bounds(const RayLanes &r) {
+    PacketBounds b;
+    __m256 ok = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+    const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+    const __m256 inf = _mm256_set1_ps(INFINITY);
+    for (int a = 0; a < 3; ++a) {
+        // The lanes' -org, each against lane 0's (all lanes: bits equal).
+        b.neg_org[a] = _mm256_permutevar8x32_ps(r.neg_org[a], _mm256_setzero_si256());
+        ok = _mm256_and_ps(ok, _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_castps_si256(r.neg_org[a]),
+                                                                       _mm256_castps_si256(b.neg_org[a]))));
+        ok = _mm256_and_ps(ok, _mm256_cmp_ps(_mm256_and_ps(r.inv[a], abs_mask), inf, _CMP_LT_OQ));
+        ok = _mm256_and_ps(ok, _mm256_cmp_ps(_mm256_and_ps(r.inv_far[a], abs_mask), inf, _CMP_LT_OQ));
+    }
+    b.usable = _mm256_movemask_ps(ok) == 0xFF;
+    if (!b.usable) return b;
+    for (int a = 0; a < 3; ++a) {
+        b.inv_lo[a] = _mm256_set1_ps(lane_min(r.inv[a]));
+        b.inv_hi[a] = _mm256_set1_ps(lane_max(r.inv[a]));
+        b.inv_far_lo[a] = _mm256_set1_ps(lane_min(r.inv_far[a]));
+        b.inv_far_hi[a] = _mm256_set1_ps(lane_max(r.inv_far[a]));
+    }
+    b.tmin_lo = _mm256_set1_ps(lane_min(r.tmin));
+    return b;
+}
+
+/// The smallest (Lowest) or largest of (row + -org) * inv over the
+/// packet's range of inv, for the eight children of a row: rounding is
+/// monotone, so each lane's own product (test_child_lanes()'s, the same
+/// operations on the same -org) lies between those at the range's ends.
+template <bool Lowest>
+[[gnu::always_inline]] inline __m256 slab_extreme(const float *row, __m256 neg_org, __m256 inv_lo, __m256 inv_hi) {
+    const __m256 u = _mm256_add_ps(_mm256_load_ps(row), neg_org);
+    const __m256 a = _mm256_mul_ps(u, inv_lo), b = _mm256_mul_ps(u, inv_hi);
+    return Lowest ? _mm256_min_ps(a, b) : _mm256_max_ps(a, b);
+}
+
+/// The children of `node` that some ray of a packet from one origin may
+/// enter (PacketBounds usable): bit k clear only where no lane's
+/// test_child_lanes() can pass child k. Every lane's entry is at least the
+/// largest of the smallest near distances (and the smallest tmin), its exit
+/// at most the smallest of the largest far distances (and `bound_hi`, the
+/// largest lane's bound): where the first exceeds the second no lane
+/// enters. One test of all eight children, against the per-lane tests'
+/// eight (one a child), which then run only for the children it keeps.
+[[gnu::always_inline]] inline unsigned packet_candidates(const Wide8Node &node, const RayLanes &r,
+                                                         const PacketBounds &b, __m256 bound_hi) {
+    __m256 lo = b.tmin_lo, hi = bound_hi;
+    for (int a = 0; a < 3; ++a) {
+        lo = _mm256_max_ps(slab_extreme<true>(node.box[r.near[a]], b.neg_org[a], b.inv_lo[a], b.inv_hi[a]), lo);
+        hi = _mm256_min_ps(slab_extreme<false>(node.box[r.far[a]], b.neg_org[a], b.inv_far_lo[a], b.inv_far_hi[a]),
+                           hi);
+    }
+    return unsigned(_mm256_movemask_ps(_mm256_cmp_ps(lo, hi, _CMP_LE_OQ)));
+}
+
 /// Closest hits of rays[0, 8) (packet_eligible()) over a tree with packet
 /// leaves, walked together: a child is visited for the lanes whose own
 /// node test (test_child_lanes(), the single ray's) lets them in, a packet
 /// leaf tested by each such lane's own test_packets(), and a pending child
 /// skipped for the lanes whose closest hit now lies before their entry.
+/// Rays from one origin (camera rays) first test a node's eight children
+/// at once against the whole packet (packet_candidates()), and only the
+/// children it keeps against each lane (docs/PERFORMANCE.md, row 249).
 /// Each ray keeps its own record, every box test passes the boxes the
 /// single ray's would, and the closest hit does not depend on the visiting
 /// order (trace/hit_record.h): the answers are intersect_entry()'s.
@@ -274,6 +357,8 @@ void intersect_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, aacbvh_hit *
         reach[i] = best[i].reach();
     }
     __m256 bound = _mm256_load_ps(reach);
+    const PacketBounds pb = make_packet_bounds(r);
+    __m256 bound_hi = _mm256_set1_ps(lane_max(bound));
     const Wide8Node *nodes = wide.nodes();
     const TrianglePacket *packets = wide.packets();
     SpillBlock<PacketEntry> spill;
@@ -287,7 +372,9 @@ void intersect_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, aacbvh_hit *
             alignas(32) float entry[8][kPacketRays];
             unsigned lanes[8];
             int n = 0;
-            for (int k = 0; k < 8; ++k) {
+            const unsigned candidates = pb.usable ? packet_candidates(node, r, pb, bound_hi) : 0xFFu;
+            for (unsigned left = candidates; left != 0; left &= left - 1) {
+                const int k = __builtin_ctz(left);
                 if (node.child[k] == Wide8Node::kEmptyChild) break; // children fill the lowest slots
                 __m256 a;
                 const unsigned m = test_child_lanes(node, k, r, bound, a) & current.lanes;
@@ -322,6 +409,7 @@ void intersect_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, aacbvh_hit *
                 reach[i] = best[i].reach();
             }
             bound = _mm256_load_ps(reach);
+            bound_hi = _mm256_set1_ps(lane_max(bound));
         }
         // The next pending child with a lane that can still find a nearer hit in it.
         for (;;) {
