@@ -114,8 +114,11 @@ struct alignas(32) PacketPlanes {
 /// registers hold eight lanes (it says how many it took). Where the kernel
 /// makes the kept lanes' plane distances for a whole packet at once
 /// (kPlaneDistances), the finish takes them instead of making its own.
+/// Never inlined: the any-hit walks that inlined it (the single ray's and
+/// the AVX2 kernel's runs of eight) ran more instructions and slower than
+/// with the call (docs/PERFORMANCE.md, row 257).
 template <bool AnyHit>
-inline bool test_packets(const TrianglePacket *packets, uint32_t count, const TriangleRay &tray,
+[[gnu::noinline]] bool test_packets(const TrianglePacket *packets, uint32_t count, const TriangleRay &tray,
                          const PacketRay &pray, float tmin, HitRecord<AnyHit> &best) {
     for (uint32_t j = 0; j < count;) {
         PacketEdges e;
