@@ -119,7 +119,7 @@ struct alignas(32) PacketPlanes {
 /// with the call (docs/PERFORMANCE.md, row 257).
 template <bool AnyHit>
 [[gnu::noinline]] bool test_packets(const TrianglePacket *packets, uint32_t count, const TriangleRay &tray,
-                         const PacketRay &pray, float tmin, HitRecord<AnyHit> &best) {
+                                    const PacketRay &pray, float tmin, HitRecord<AnyHit> &best) {
     for (uint32_t j = 0; j < count;) {
         PacketEdges e;
         uint32_t used;
