@@ -347,7 +347,8 @@ void test_every_layout_visits_alike(void **) {
             aacbvh::intersect_ray_wide(wide4, c.bvh, g, ray, hit, nullptr, &four);
             expect_tests("WIDE4", small_left, z0, four.primitive_tests, hit, want);
             for (aacbvh::TraceKernel k :
-                 {aacbvh::TraceKernel::Scalar, aacbvh::TraceKernel::Sse2, aacbvh::TraceKernel::Avx2}) {
+                 {aacbvh::TraceKernel::Scalar, aacbvh::TraceKernel::Sse2, aacbvh::TraceKernel::Avx2,
+                  aacbvh::TraceKernel::Avx512}) {
                 if (!aacbvh::set_trace_kernel(k)) continue;
                 ++wide8_kernels;
                 aacbvh::TraversalCounters eight;

@@ -1,7 +1,7 @@
 // The 8-wide traversal's kernels (lib/trace/wide8_traversal.h): plain C++,
-// SSE2 and AVX2, each forced in turn on every kernel this CPU can run, must
-// answer every ray bit for bit like the binary traversal reading the
-// caller's triangles: every generated scene kind (coplanar stacks, zero-area
+// SSE2, AVX2 and AVX-512, each forced in turn on every kernel this CPU can
+// run, must answer every ray bit for bit like the binary traversal reading
+// the caller's triangles: every generated scene kind (coplanar stacks, zero-area
 // and wide-range triangles included), a watertight grid moved 1e5 away from
 // the origin, boxes, and tests/test_support's rays (axis-parallel
 // directions, origins on planes, odd windows, invalid rays), with packet
@@ -30,7 +30,7 @@ namespace {
 
 constexpr size_t kRays = TS_RAYS(3000);
 const aacbvh::TraceKernel kKernels[] = {aacbvh::TraceKernel::Scalar, aacbvh::TraceKernel::Sse2,
-                                        aacbvh::TraceKernel::Avx2};
+                                        aacbvh::TraceKernel::Avx2, aacbvh::TraceKernel::Avx512};
 
 aacbvh_bvh *make(aacbvh_context *ctx, aacbvh_layout layout, aacbvh_triangle_storage storage, aacbvh_builder builder) {
     aacbvh_bvh *bvh = nullptr;

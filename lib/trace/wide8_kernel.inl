@@ -306,6 +306,24 @@ bool query(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const
     return found;
 }
 
+// The single-ray entries. A kernel compiled with
+// AACBVH_WIDE8_SINGLE_RAYS_FROM_AVX2 (the AVX-512 kernel) hands them to the
+// AVX2 kernel's code, which ran them faster (docs/PERFORMANCE.md, row 259).
+#if AACBVH_WIDE8_SINGLE_RAYS_FROM_AVX2
+void intersect_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
+                     aacbvh_hit &hit) {
+    kWide8Avx2.intersect(wide, bvh, geometry, ray, hit);
+}
+
+void intersect_counted_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
+                             aacbvh_hit &hit, TraversalCounters &counters) {
+    kWide8Avx2.intersect_counted(wide, bvh, geometry, ray, hit, counters);
+}
+
+bool occluded_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray) {
+    return kWide8Avx2.occluded(wide, bvh, geometry, ray);
+}
+#else
 void intersect_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
                      aacbvh_hit &hit) {
     query<false>(wide, bvh, geometry, ray, hit);
@@ -322,6 +340,7 @@ bool occluded_entry(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geomet
     aacbvh_hit unused;
     return query<true>(wide, bvh, geometry, ray, unused);
 }
+#endif
 
 #if !AACBVH_WIDE8_PACKETS
 /// intersect_entry() over rays[0, count) into hits[0, count), one by one

@@ -13,10 +13,24 @@ extern const Wide8Kernel kWide8Sse2;
 #define AACBVH_HAVE_AVX2_KERNEL 1
 extern const Wide8Kernel kWide8Avx2;
 #endif
+#if AACBVH_WIDE8_AVX512_KERNEL
+extern const Wide8Kernel kWide8Avx512;
+#endif
 
 namespace {
 
+#if AACBVH_WIDE8_AVX512_KERNEL
+bool cpu_has_avx512() {
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("avx512f") &&
+           __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
+           __builtin_cpu_supports("avx512dq");
+}
+#endif
+
 TraceKernel best_kernel() {
+#if AACBVH_WIDE8_AVX512_KERNEL
+    if (cpu_has_avx512()) return TraceKernel::Avx512;
+#endif
 #if AACBVH_HAVE_AVX2_KERNEL
     if (__builtin_cpu_supports("avx2")) return TraceKernel::Avx2;
 #endif
@@ -29,6 +43,9 @@ TraceKernel best_kernel() {
 
 const Wide8Kernel &kernel_table(TraceKernel k) {
     switch (k) {
+#if AACBVH_WIDE8_AVX512_KERNEL
+    case TraceKernel::Avx512: return kWide8Avx512;
+#endif
 #if AACBVH_HAVE_AVX2_KERNEL
     case TraceKernel::Avx2: return kWide8Avx2;
 #endif
@@ -57,7 +74,18 @@ bool trace_kernel_available(TraceKernel kernel) {
 #else
         return false;
 #endif
-    case TraceKernel::Avx2: return best_kernel() == TraceKernel::Avx2;
+    case TraceKernel::Avx2:
+#if AACBVH_HAVE_AVX2_KERNEL
+        return __builtin_cpu_supports("avx2");
+#else
+        return false;
+#endif
+    case TraceKernel::Avx512:
+#if AACBVH_WIDE8_AVX512_KERNEL
+        return cpu_has_avx512();
+#else
+        return false;
+#endif
     }
     return false;
 }
@@ -73,6 +101,7 @@ const char *trace_kernel_name(TraceKernel kernel) {
     case TraceKernel::Scalar: return "scalar";
     case TraceKernel::Sse2: return "sse2";
     case TraceKernel::Avx2: return "avx2";
+    case TraceKernel::Avx512: return "avx512";
     }
     return "unknown";
 }

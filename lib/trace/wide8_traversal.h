@@ -1,6 +1,8 @@
 // Ray queries over the 8-wide layout (bvh/wide8_bvh.h), with kernels chosen
 // at run time from the CPU: a plain C++ one that builds anywhere, SSE2 (the
-// x86-64 baseline) and AVX2. Every kernel does the same floating-point
+// x86-64 baseline), AVX2, and AVX-512 (the AVX2 kernel's code compiled
+// for AVX-512 F, VL, BW and DQ, its single rays left to the AVX2 code,
+// where that measured faster). Every kernel does the same floating-point
 // operations in the same order for each ray and box, so all give the same
 // hits bit for bit (the AVX2 kernel's batches trace runs of eight coherent
 // rays together: the same tests in another order, and a closest hit does not
@@ -16,7 +18,15 @@
 
 namespace aacbvh {
 
-enum class TraceKernel { Scalar, Sse2, Avx2 };
+enum class TraceKernel { Scalar, Sse2, Avx2, Avx512 };
+
+/// Whether this build has the AVX-512 kernel: GCC or Clang on x86-64, as
+/// for the AVX2 kernel.
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define AACBVH_WIDE8_AVX512_KERNEL 1
+#else
+#define AACBVH_WIDE8_AVX512_KERNEL 0
+#endif
 
 /// The kernel in use: the best this build and CPU can run, unless a test
 /// forced another.
