@@ -1,14 +1,49 @@
-// The 8-wide traversal's x86 vector kernel, included once by each file that
-// compiles it for an instruction set (wide8_kernel_avx2.cpp,
-// wide8_kernel_avx512.cpp) inside that file's target region and its own
-// namespace, after the headers it needs: a node's eight boxes in one 256-bit
-// register per slab. No fused multiply-add (the library builds with
-// -ffp-contract=off), so every product and sum rounds as in the other
-// kernels, whatever instruction set compiles it.
-//
-// With AACBVH_WIDE8_SINGLE_RAYS_FROM_AVX2 (the AVX-512 kernel), rays traced
-// one by one go to the AVX2 kernel's code (kWide8Avx2, wide8_kernel.inl):
-// only the runs of eight are compiled again.
+// The 8-wide traversal's x86 vector kernel, compiled once for each
+// instruction set by a file that names it and includes this one
+// (wide8_kernel_avx2.cpp, wide8_kernel_avx512.cpp):
+//   AACBVH_WIDE8_X86_TARGET     the target, e.g. "avx2"
+//   AACBVH_WIDE8_X86_NAMESPACE  the kernel's namespace, e.g. wide8_avx2
+//   AACBVH_WIDE8_X86_TABLE      the kernel table it defines, e.g. kWide8Avx2
+//   AACBVH_WIDE8_SINGLE_RAYS_FROM_AVX2  (optional) rays traced one by one go
+//                               to the AVX2 kernel's code (wide8_kernel.inl)
+// A node's eight boxes in one 256-bit register per slab. No fused
+// multiply-add (the library builds with -ffp-contract=off), so every product
+// and sum rounds as in the other kernels, whatever instruction set compiles
+// it; the kernel is called only on CPUs that have its instruction set
+// (wide8_traversal.cpp).
+#include <cstring>
+
+#include "trace/child_order.h"
+#include "trace/hit_record.h"
+#include "trace/ray_primitives.h"
+#include "trace/spill_stack.h"
+#include "trace/wide8_traversal.h"
+
+#if AACBVH_WIDE8_X86_KERNELS
+#include <immintrin.h>
+
+#include "trace/wide8_packet_sse.h"
+
+// Everything defined from here to the end of the region is compiled for the
+// target; the headers above stay baseline code, so no out-of-line copy of a
+// shared inline function is ever vector code.
+#define AACBVH_WIDE8_PRAGMA(text) _Pragma(#text)
+#define AACBVH_WIDE8_TARGET_PUSH(isa) \
+    AACBVH_WIDE8_PRAGMA(clang attribute push(__attribute__((target(isa))), apply_to = function))
+#define AACBVH_WIDE8_TARGET_GCC(isa) AACBVH_WIDE8_PRAGMA(GCC target(isa))
+#if defined(__clang__)
+AACBVH_WIDE8_TARGET_PUSH(AACBVH_WIDE8_X86_TARGET)
+#else
+#pragma GCC push_options
+AACBVH_WIDE8_TARGET_GCC(AACBVH_WIDE8_X86_TARGET)
+#endif
+
+namespace aacbvh {
+#if AACBVH_WIDE8_SINGLE_RAYS_FROM_AVX2
+extern const Wide8Kernel kWide8Avx2;
+#endif
+namespace AACBVH_WIDE8_X86_NAMESPACE {
+namespace {
 
 struct NodeRay {
     long near[3], far[3]; ///< rows of Wide8Node::box (long: no extension per node)
@@ -608,4 +643,19 @@ inline __m256i sort_layer(__m256i x, __m256i partner) {
     return n;
 }
 
+} // namespace
+} // namespace AACBVH_WIDE8_X86_NAMESPACE
 
+extern const Wide8Kernel AACBVH_WIDE8_X86_TABLE = {
+    AACBVH_WIDE8_X86_NAMESPACE::intersect_entry, AACBVH_WIDE8_X86_NAMESPACE::intersect_batch_entry,
+    AACBVH_WIDE8_X86_NAMESPACE::occluded_entry, AACBVH_WIDE8_X86_NAMESPACE::occluded_batch_entry,
+    AACBVH_WIDE8_X86_NAMESPACE::intersect_counted_entry};
+
+} // namespace aacbvh
+
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+#endif

@@ -13,13 +13,13 @@ extern const Wide8Kernel kWide8Sse2;
 #define AACBVH_HAVE_AVX2_KERNEL 1
 extern const Wide8Kernel kWide8Avx2;
 #endif
-#if AACBVH_WIDE8_AVX512_KERNEL
+#if AACBVH_WIDE8_X86_KERNELS
 extern const Wide8Kernel kWide8Avx512;
 #endif
 
 namespace {
 
-#if AACBVH_WIDE8_AVX512_KERNEL
+#if AACBVH_WIDE8_X86_KERNELS
 bool cpu_has_avx512() {
     return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("avx512f") &&
            __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
@@ -28,7 +28,7 @@ bool cpu_has_avx512() {
 #endif
 
 TraceKernel best_kernel() {
-#if AACBVH_WIDE8_AVX512_KERNEL
+#if AACBVH_WIDE8_X86_KERNELS
     if (cpu_has_avx512()) return TraceKernel::Avx512;
 #endif
 #if AACBVH_HAVE_AVX2_KERNEL
@@ -43,7 +43,7 @@ TraceKernel best_kernel() {
 
 const Wide8Kernel &kernel_table(TraceKernel k) {
     switch (k) {
-#if AACBVH_WIDE8_AVX512_KERNEL
+#if AACBVH_WIDE8_X86_KERNELS
     case TraceKernel::Avx512: return kWide8Avx512;
 #endif
 #if AACBVH_HAVE_AVX2_KERNEL
@@ -81,7 +81,7 @@ bool trace_kernel_available(TraceKernel kernel) {
         return false;
 #endif
     case TraceKernel::Avx512:
-#if AACBVH_WIDE8_AVX512_KERNEL
+#if AACBVH_WIDE8_X86_KERNELS
         return cpu_has_avx512();
 #else
         return false;

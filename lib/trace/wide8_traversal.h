@@ -20,12 +20,12 @@ namespace aacbvh {
 
 enum class TraceKernel { Scalar, Sse2, Avx2, Avx512 };
 
-/// Whether this build has the AVX-512 kernel: GCC or Clang on x86-64, as
-/// for the AVX2 kernel.
+/// Whether this build has the x86 vector kernels (AVX2 and AVX-512,
+/// trace/wide8_kernel_x86.inl): GCC or Clang on x86-64.
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define AACBVH_WIDE8_AVX512_KERNEL 1
+#define AACBVH_WIDE8_X86_KERNELS 1
 #else
-#define AACBVH_WIDE8_AVX512_KERNEL 0
+#define AACBVH_WIDE8_X86_KERNELS 0
 #endif
 
 /// The kernel in use: the best this build and CPU can run, unless a test
