@@ -221,7 +221,7 @@ void test_rays_from_outside(void **) {
 }
 
 /// Runs of eight rays that the AVX2 kernel traces together for their
-/// closest hits (intersect_packet(), trace/wide8_kernel_avx2.cpp): from one
+/// closest hits (intersect_packet(), trace/wide8_kernel_x86.inl): from one
 /// eye, inside or outside the scene, through eight neighbouring pixels, at
 /// pixel spacings from a ten-thousandth to a tenth of the scene. Some runs
 /// are made hard lane by lane: a short or empty window, a window that
