@@ -374,7 +374,7 @@ void intersect_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, aacbvh_hit *
     }
     __m256 bound = _mm256_load_ps(reach);
     const PacketBounds pb = make_packet_bounds(r);
-    __m256 bound_hi = _mm256_set1_ps(lane_max(bound));
+    __m256 bound_hi = _mm256_set1_ps(lane_max(bound)); // read only where pb.usable
     const Wide8Node *nodes = wide.nodes();
     const TrianglePacket *packets = wide.packets();
     SpillBlock<PacketEntry> spill;
@@ -425,7 +425,7 @@ void intersect_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, aacbvh_hit *
                 reach[i] = best[i].reach();
             }
             bound = _mm256_load_ps(reach);
-            bound_hi = _mm256_set1_ps(lane_max(bound));
+            if (pb.usable) bound_hi = _mm256_set1_ps(lane_max(bound));
         }
         // The next pending child with a lane that can still find a nearer hit in it.
         for (;;) {

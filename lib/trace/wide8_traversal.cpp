@@ -9,44 +9,47 @@ extern const Wide8Kernel kWide8Scalar;
 #if defined(__SSE2__)
 extern const Wide8Kernel kWide8Sse2;
 #endif
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define AACBVH_HAVE_AVX2_KERNEL 1
-extern const Wide8Kernel kWide8Avx2;
-#endif
 #if AACBVH_WIDE8_X86_KERNELS
+extern const Wide8Kernel kWide8Avx2;
 extern const Wide8Kernel kWide8Avx512;
 #endif
 
+bool trace_kernel_available(TraceKernel kernel) {
+    switch (kernel) {
+    case TraceKernel::Scalar: return true;
+    case TraceKernel::Sse2:
+#if defined(__SSE2__)
+        return true;
+#else
+        return false;
+#endif
+#if AACBVH_WIDE8_X86_KERNELS
+    case TraceKernel::Avx2: return __builtin_cpu_supports("avx2");
+    case TraceKernel::Avx512:
+        return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("avx512f") &&
+               __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
+               __builtin_cpu_supports("avx512dq");
+#else
+    case TraceKernel::Avx2:
+    case TraceKernel::Avx512: return false;
+#endif
+    }
+    return false;
+}
+
 namespace {
 
-#if AACBVH_WIDE8_X86_KERNELS
-bool cpu_has_avx512() {
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("avx512f") &&
-           __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
-           __builtin_cpu_supports("avx512dq");
-}
-#endif
-
+/// The fastest kernel this build and CPU can run.
 TraceKernel best_kernel() {
-#if AACBVH_WIDE8_X86_KERNELS
-    if (cpu_has_avx512()) return TraceKernel::Avx512;
-#endif
-#if AACBVH_HAVE_AVX2_KERNEL
-    if (__builtin_cpu_supports("avx2")) return TraceKernel::Avx2;
-#endif
-#if defined(__SSE2__)
-    return TraceKernel::Sse2;
-#else
+    for (TraceKernel k : {TraceKernel::Avx512, TraceKernel::Avx2, TraceKernel::Sse2})
+        if (trace_kernel_available(k)) return k;
     return TraceKernel::Scalar;
-#endif
 }
 
 const Wide8Kernel &kernel_table(TraceKernel k) {
     switch (k) {
 #if AACBVH_WIDE8_X86_KERNELS
     case TraceKernel::Avx512: return kWide8Avx512;
-#endif
-#if AACBVH_HAVE_AVX2_KERNEL
     case TraceKernel::Avx2: return kWide8Avx2;
 #endif
 #if defined(__SSE2__)
@@ -64,31 +67,6 @@ std::atomic<TraceKernel> &current_kernel() {
 } // namespace
 
 TraceKernel trace_kernel() { return current_kernel().load(std::memory_order_relaxed); }
-
-bool trace_kernel_available(TraceKernel kernel) {
-    switch (kernel) {
-    case TraceKernel::Scalar: return true;
-    case TraceKernel::Sse2:
-#if defined(__SSE2__)
-        return true;
-#else
-        return false;
-#endif
-    case TraceKernel::Avx2:
-#if AACBVH_HAVE_AVX2_KERNEL
-        return __builtin_cpu_supports("avx2");
-#else
-        return false;
-#endif
-    case TraceKernel::Avx512:
-#if AACBVH_WIDE8_X86_KERNELS
-        return cpu_has_avx512();
-#else
-        return false;
-#endif
-    }
-    return false;
-}
 
 bool set_trace_kernel(TraceKernel kernel) {
     if (!trace_kernel_available(kernel)) return false;
