@@ -238,7 +238,7 @@ void BvhObject::build() {
 void BvhObject::make_layouts(const Bvh &tree, Layouts &out) const {
     if (params.layout == AACBVH_LAYOUT_WIDE4) out.wide.build(tree, scheduler_);
     if (params.layout == AACBVH_LAYOUT_WIDE8) {
-        out.wide8.build(tree, packets_wanted() ? &geometry_ : nullptr, scheduler_);
+        out.wide8.build(tree, packets_wanted() ? &geometry_ : nullptr, scheduler_, collapse_rule());
         // The packets hold the vertices, so the binary boxes can be made
         // again from them: keep the shape only (its refit needs no sources).
         if (out.wide8.has_packets() && out.topology.encode(tree, scheduler_)) out.wide8.release_sources();
@@ -269,7 +269,7 @@ void BvhObject::make_compact_layouts(BinaryTree &tree, const FlattenRule &rule, 
     const EmittedOrder order{shape.data(), result.prim_ids.data(), tree.prim_ids.data()};
     if (!out.topology.adopt(shape, view)) throw Error(AACBVH_ERROR_INTERNAL, "the tree's shape was not adopted");
     out.wide8.build(
-        view, geometry_, order, scheduler_,
+        view, geometry_, order, scheduler_, collapse_rule(),
         [&] {
             Array<uint32_t>().swap(tree.children);
             Array<uint32_t>().swap(tree.prim_ids); // in result.prim_ids now, in leaf order
@@ -356,6 +356,10 @@ bool BvhObject::packets_wanted() const {
            params.triangle_storage == AACBVH_TRIANGLES_COPIED;
 }
 
+CollapseRule BvhObject::collapse_rule() const {
+    return params.builder == AACBVH_BUILDER_AAC_FAST ? CollapseRule::LargestFirst : CollapseRule::Planned;
+}
+
 bool BvhObject::flat_copy_wanted() const {
     return params.layout != AACBVH_LAYOUT_WIDE8 && geometry_.kind == GeometryKind::Triangles &&
            params.triangle_storage == AACBVH_TRIANGLES_COPIED;
@@ -391,7 +395,7 @@ void BvhObject::refit() {
     if (params.layout != AACBVH_LAYOUT_WIDE8)
         wide8_.clear();
     else if (!wide8_.built() || wide8_.has_packets() != packets_wanted())
-        wide8_.build(bvh_, packets_wanted() ? &geometry_ : nullptr, scheduler_);
+        wide8_.build(bvh_, packets_wanted() ? &geometry_ : nullptr, scheduler_, collapse_rule());
     // The triangle copy (AACBVH_TRIANGLES_COPIED) is allocated before the
     // refit, so that running out of memory leaves the tree as it was, and
     // filled in place after it.

@@ -95,6 +95,9 @@ public:
     const Geometry &geometry() const { return geometry_; }
     /// The layouts as they are (for tests).
     const Wide8Bvh &wide8() const { return wide8_; }
+    /// The 8-wide collapse's rule (bvh/wide8_bvh.h): by the SAH, but for
+    /// AAC-Fast, whose preset is its build time.
+    CollapseRule collapse_rule() const;
     const CompactTopology &topology() const { return topology_; }
     Scheduler &scheduler() const { return scheduler_; }
 

@@ -1,6 +1,7 @@
 // Collapse and refit of the 8-wide layout (its traversal: trace/wide8_traversal.cpp).
 #include "bvh/wide8_bvh.h"
 
+#include "bvh/collapse_plan.h"
 #include "bvh/packet_leaf_sweep.h"
 #include "bvh/wide_collapse.h"
 
@@ -125,6 +126,13 @@ struct EmittedSource : EmittedShape {
     const PacketLeafSweep *sweep; ///< with packets only
 
     bool is_leaf(uint32_t i) const { return sweep ? sweep->packet_leaf[i] != 0 : nodes[i].is_leaf(); }
+    /// For the plan of a task's subtree (bvh/collapse_plan.h): a leaf of the
+    /// binary layout, and a hint that node i is read soon.
+    bool is_binary_leaf(uint32_t i) const { return nodes[i].is_leaf(); }
+    void prefetch(uint32_t i) const {
+        __builtin_prefetch(&nodes[i]);
+        if (sweep) __builtin_prefetch(&sweep->range_count[i]);
+    }
     /// The primitives below, kNoRange when unknown (no packets).
     uint32_t prims(uint32_t i) const { return sweep ? sweep->range_count[i] : kNoRange; }
     /// A leaf child's slot range: the binary leaf's, or the small subtree's.
@@ -150,6 +158,17 @@ struct ChosenSource {
     EmittedOrder order; ///< written as the collapse meets the nodes
 
     bool is_leaf(Place p) const { return tree.is_packet_leaf(p.id); }
+    /// For the plan of a task's subtree (bvh/collapse_plan.h): a leaf of the
+    /// binary layout, and a hint that the node's box, counts and children
+    /// are read soon.
+    bool is_binary_leaf(Place p) const { return tree.is_leaf(p.id); }
+    void prefetch(Place p) const {
+        __builtin_prefetch(&tree.boxes[p.id]);
+        if (p.id >= tree.n) {
+            __builtin_prefetch(&tree.counts[p.id - tree.n]);
+            __builtin_prefetch(&tree.children[2 * size_t(p.id - tree.n)]);
+        }
+    }
     /// The builder's ids are in merge order, so a node's children lie
     /// anywhere: their ids are asked for as soon as the node joins a wide
     /// node, before the areas decide whether it is opened.
@@ -174,7 +193,9 @@ struct ChosenSource {
 
 /// Collapsing: a wide node starts as its binary node's two children and
 /// opens the child of largest area until it has eight children or only
-/// leaves (binary leaves, or packet leaves with packets).
+/// leaves (binary leaves, or packet leaves with packets); with packets, the
+/// subtrees that tasks take follow their SAH plan instead
+/// (bvh/collapse_plan.h).
 template <class Source> class Collapser {
 public:
     using Handle = typename Source::Handle;
@@ -182,13 +203,16 @@ public:
 
     /// The wide nodes from binary node `root` down into `out`; with `tasks`,
     /// inner children of fewer than kTaskPrimitives primitives are left to
-    /// tasks (appended to it) instead.
-    void run(Handle root, CollapsePiece &out, std::vector<Handle> *tasks) const {
+    /// tasks (appended to it) instead. With `plan` (a task's subtree, with
+    /// packets), the wide nodes and packet leaves are the plan's
+    /// (bvh/collapse_plan.h) instead of open_largest()'s.
+    void run(Handle root, CollapsePiece &out, std::vector<Handle> *tasks, SubtreePlan<Source> *plan = nullptr) const {
         struct Work {
             Handle binary;
             uint32_t wide;
+            uint32_t planned; ///< the node's index in `plan`
         };
-        std::vector<Work> work{{root, 0u}};
+        std::vector<Work> work{{root, 0u, plan ? plan->plan(root) : 0u}};
         uint32_t next = 1, next_packet = 0;
         // A task's piece sized ahead from its primitives (about 0.04 wide
         // nodes and 0.3 packets a primitive on the shared scenes), so that
@@ -206,7 +230,16 @@ public:
             const Work w = work.back();
             work.pop_back();
             Handle kids[8];
-            const int m = open_largest<8>(source_, w.binary, kids);
+            bool leaf[8];
+            uint32_t planned[8];
+            int m;
+            if (plan) {
+                m = plan->open(w.planned, planned, leaf);
+                for (int k = 0; k < m; ++k) kids[k] = plan->handle(planned[k]);
+            } else {
+                m = open_largest<8>(source_, w.binary, kids);
+                for (int k = 0; k < m; ++k) leaf[k] = source_.is_leaf(kids[k]);
+            }
             // Nodes are numbered when their parent meets them, so this one's
             // entries may exist already.
             if (out.sources.size() < 8 * size_t(next)) {
@@ -223,7 +256,7 @@ public:
                 count[k] = 0;
                 if (k >= m) continue;
                 src[k] = source_.source(kids[k]);
-                if (!source_.is_leaf(kids[k])) {
+                if (!leaf[k]) {
                     const uint32_t prims = source_.prims(kids[k]);
                     if (tasks && prims < kTaskPrimitives) {
                         child[k] = kTaskBit | uint32_t(tasks->size());
@@ -250,7 +283,8 @@ public:
                 }
             }
             for (int k = m; k-- > 0;)
-                if (wide_kid[k] != Wide8Node::kEmptyChild) work.push_back(Work{kids[k], wide_kid[k]});
+                if (wide_kid[k] != Wide8Node::kEmptyChild)
+                    work.push_back(Work{kids[k], wide_kid[k], plan ? planned[k] : 0u});
         }
     }
 
@@ -263,8 +297,8 @@ private:
 
 template <class Source>
 void Wide8Bvh::build_from(const Source &source, typename Source::Handle root, const Geometry *triangles,
-                          const uint32_t *prim_ids, Scheduler &scheduler, const std::function<void()> &shape_done,
-                          const std::function<void()> &source_done) {
+                          const uint32_t *prim_ids, Scheduler &scheduler, CollapseRule rule,
+                          const std::function<void()> &shape_done, const std::function<void()> &source_done) {
     using Handle = typename Source::Handle;
     const bool packets = triangles != nullptr;
 
@@ -278,7 +312,12 @@ void Wide8Bvh::build_from(const Source &source, typename Source::Handle root, co
     collapser.run(root, pieces[0], packets ? &tasks : nullptr);
     pieces.resize(1 + tasks.size());
     scheduler.parallel_for(0, tasks.size(), 1, [&](size_t b, size_t e) {
-        for (size_t t = b; t < e; ++t) collapser.run(tasks[t], pieces[1 + t], nullptr);
+        if (rule == CollapseRule::LargestFirst) {
+            for (size_t t = b; t < e; ++t) collapser.run(tasks[t], pieces[1 + t], nullptr);
+            return;
+        }
+        SubtreePlan<Source> plan(source); // its arrays serve each task in turn
+        for (size_t t = b; t < e; ++t) collapser.run(tasks[t], pieces[1 + t], nullptr, &plan);
     });
     // Only the boxes of the source are read from here on: a caller may free
     // the rest before the arrays below are allocated (docs/PERFORMANCE.md,
@@ -379,7 +418,7 @@ void Wide8Bvh::build_from(const Source &source, typename Source::Handle root, co
     update_bounds();
 }
 
-void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &scheduler) {
+void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &scheduler, CollapseRule rule) {
     if (bvh.empty()) {
         clear();
         built_ = true;
@@ -388,14 +427,15 @@ void Wide8Bvh::build(const Bvh &bvh, const Geometry *triangles, Scheduler &sched
     std::unique_ptr<PacketLeafSweep> sweep;
     if (triangles) sweep.reset(new PacketLeafSweep(bvh, scheduler));
     const EmittedSource source{{bvh.nodes.data(), extent_scale_of(bvh.nodes[0].box)}, sweep.get()};
-    build_from(source, 0u, triangles, bvh.prim_ids.data(), scheduler, nullptr, [&] { sweep.reset(); });
+    build_from(source, 0u, triangles, bvh.prim_ids.data(), scheduler, rule, nullptr, [&] { sweep.reset(); });
 }
 
 void Wide8Bvh::build(const ChosenTree &tree, const Geometry &triangles, const EmittedOrder &order,
-                     Scheduler &scheduler, const std::function<void()> &shape_done,
+                     Scheduler &scheduler, CollapseRule rule, const std::function<void()> &shape_done,
                      const std::function<void()> &tree_done) {
     const ChosenSource source{tree, order, extent_scale_of(tree.boxes[tree.root])};
-    build_from(source, Place{tree.root, 0, 0, 1}, &triangles, order.prim_ids, scheduler, shape_done, tree_done);
+    build_from(source, Place{tree.root, 0, 0, 1}, &triangles, order.prim_ids, scheduler, rule, shape_done,
+               tree_done);
     // Its sources are the builder's ids, which mean nothing once the build
     // is over: the handle keeps the binary tree's shape instead.
     release_sources();

@@ -11,7 +11,10 @@
 // repeatedly opens the child of largest surface area (the one a random ray
 // is most likely to enter, the SAH's weight) until it has eight children or
 // only leaves. With packets, a binary subtree of at most kPacketLeaf
-// primitives becomes one leaf (one packet test instead of its inner nodes).
+// primitives becomes one leaf (one packet test instead of its inner nodes),
+// and, by CollapseRule::Planned, the subtrees of fewer than 4,096 primitives
+// below the top are collapsed by the SAH instead, their wide nodes and
+// packet leaves chosen together (bvh/collapse_plan.h).
 // Without packets the binary tree stays: aacbvh_bvh_get_nodes() reports it
 // and refit runs on it, then copies its boxes here (through sources_). With
 // packets the handle keeps only the binary tree's shape
@@ -32,6 +35,17 @@
 #include "core/scheduler.h"
 
 namespace aacbvh {
+
+/// How the collapse below the top of the tree chooses the wide nodes and
+/// packet leaves of the subtrees its tasks take (subtrees of fewer than
+/// 4,096 primitives, with packets only). Planned: by the SAH over each whole
+/// subtree (bvh/collapse_plan.h): rays up to 9 % faster (diffuse rays 3-7 %
+/// on most scenes) than LargestFirst, for AAC-HQ builds about 7 % longer
+/// (docs/PERFORMANCE.md, row 263).
+/// LargestFirst: the child of largest area opened first, as at the top,
+/// over the packet leaves the flattening chose; the handle picks it for
+/// AAC-Fast's builds, whose preset is its build time.
+enum class CollapseRule { Planned, LargestFirst };
 
 /// One wide node, 256 bytes, 64-byte aligned (four cache lines):
 ///   bytes   0..191 box[6][8]: child k's lo x, hi x, lo y, hi y, lo z, hi z in
@@ -95,7 +109,8 @@ public:
     /// checked by the build), leaves are packets copied from it; without,
     /// leaves are the binary leaves' slot ranges. Replaces the previous tree
     /// only on success; throws std::bad_alloc.
-    void build(const Bvh &bvh, const Geometry *triangles, Scheduler &scheduler);
+    void build(const Bvh &bvh, const Geometry *triangles, Scheduler &scheduler,
+               CollapseRule rule = CollapseRule::Planned);
     /// The same tree with packets, collapsed straight from a builder's tree
     /// (bvh/chosen_tree.h) instead of its emitted binary nodes (which need
     /// not exist). The collapse writes the emitted layout's shape and
@@ -107,7 +122,7 @@ public:
     /// the packets are made). Keeps no sources (refit from the packets).
     /// Throws std::bad_alloc, keeping the previous tree.
     void build(const ChosenTree &tree, const Geometry &triangles, const EmittedOrder &order, Scheduler &scheduler,
-               const std::function<void()> &shape_done, const std::function<void()> &tree_done);
+               CollapseRule rule, const std::function<void()> &shape_done, const std::function<void()> &tree_done);
     /// After a refit of `bvh`: copies its boxes into the wide nodes and, with
     /// packets, the triangles' new vertices from `geometry`. No allocation.
     void refit(const Bvh &bvh, const Geometry &geometry, Scheduler &scheduler);
@@ -158,8 +173,8 @@ private:
     /// Both builds: the collapse of `source` (wide8_bvh.cpp) from `root`.
     template <class Source>
     void build_from(const Source &source, typename Source::Handle root, const Geometry *triangles,
-                    const uint32_t *prim_ids, Scheduler &scheduler, const std::function<void()> &shape_done,
-                    const std::function<void()> &source_done);
+                    const uint32_t *prim_ids, Scheduler &scheduler, CollapseRule rule,
+                    const std::function<void()> &shape_done, const std::function<void()> &source_done);
     /// Re-reads every packet's vertices from `geometry`.
     void refill_packets(const Geometry &geometry, Scheduler &scheduler);
     /// bounds_ from the root's boxes, after every change of them.
