@@ -33,6 +33,7 @@
 // bvh/wide8_bvh.cpp (their areas and counts agree).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -75,6 +76,10 @@ public:
     }
 
     Handle handle(uint32_t node) const { return nodes_[node].h; }
+
+    /// The bytes its arrays hold (their capacity), for the build's memory
+    /// meter.
+    size_t held_bytes() const { return nodes_.capacity() * sizeof(Node) + cost_.capacity() * sizeof(Costs); }
 
     /// The children of the wide node over planned inner node `node` (0 from
     /// plan(), or an inner child from open()), with whether each is one

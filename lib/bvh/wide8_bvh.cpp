@@ -36,6 +36,10 @@ void Wide8Bvh::update_bounds() {
     }
 }
 
+namespace testing {
+std::atomic<uint64_t> largest_plan_bytes{0};
+} // namespace testing
+
 namespace {
 
 void set_empty_slot(Wide8Node &node, int k) {
@@ -107,6 +111,29 @@ public:
     }
     PieceBytes(const PieceBytes &) = delete;
     PieceBytes &operator=(const PieceBytes &) = delete;
+
+private:
+    MemoryMeter *meter_;
+    int64_t bytes_ = 0;
+};
+
+/// Bytes that grow as a task's plan grows (SubtreePlan::held_bytes()), in
+/// the build's memory meter (when one is installed) while they live.
+class PlanBytes {
+public:
+    explicit PlanBytes(MemoryMeter *meter) : meter_(meter) {}
+    ~PlanBytes() {
+        if (meter_) meter_->add(-bytes_);
+    }
+    PlanBytes(const PlanBytes &) = delete;
+    PlanBytes &operator=(const PlanBytes &) = delete;
+    void set(size_t bytes) {
+        if (meter_) meter_->add(int64_t(bytes) - bytes_);
+        bytes_ = int64_t(bytes);
+        uint64_t seen = testing::largest_plan_bytes.load(std::memory_order_relaxed);
+        while (bytes > seen && !testing::largest_plan_bytes.compare_exchange_weak(seen, bytes, std::memory_order_relaxed)) {
+        }
+    }
 
 private:
     MemoryMeter *meter_;
@@ -317,7 +344,11 @@ void Wide8Bvh::build_from(const Source &source, typename Source::Handle root, co
             return;
         }
         SubtreePlan<Source> plan(source); // its arrays serve each task in turn
-        for (size_t t = b; t < e; ++t) collapser.run(tasks[t], pieces[1 + t], nullptr, &plan);
+        PlanBytes counted(MemoryMeter::current()); // the build's, on any thread (Scheduler)
+        for (size_t t = b; t < e; ++t) {
+            collapser.run(tasks[t], pieces[1 + t], nullptr, &plan);
+            counted.set(plan.held_bytes());
+        }
     });
     // Only the boxes of the source are read from here on: a caller may free
     // the rest before the arrays below are allocated (docs/PERFORMANCE.md,

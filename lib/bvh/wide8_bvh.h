@@ -22,6 +22,7 @@
 // (refit_from_packets), which hold the triangles of the last build or refit.
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -46,6 +47,13 @@ namespace aacbvh {
 /// over the packet leaves the flattening chose; the handle picks it for
 /// AAC-Fast's builds, whose preset is its build time.
 enum class CollapseRule { Planned, LargestFirst };
+
+namespace testing {
+/// The most bytes one task thread's plan held (SubtreePlan::held_bytes(),
+/// counted in the build's memory meter) since a test last set it to 0: the
+/// scratch a build's peak may include beside its arrays.
+extern std::atomic<uint64_t> largest_plan_bytes;
+} // namespace testing
 
 /// One wide node, 256 bytes, 64-byte aligned (four cache lines):
 ///   bytes   0..191 box[6][8]: child k's lo x, hi x, lo y, hi y, lo z, hi z in
