@@ -130,8 +130,9 @@ public:
     void set(size_t bytes) {
         if (meter_) meter_->add(int64_t(bytes) - bytes_);
         bytes_ = int64_t(bytes);
-        uint64_t seen = testing::largest_plan_bytes.load(std::memory_order_relaxed);
-        while (bytes > seen && !testing::largest_plan_bytes.compare_exchange_weak(seen, bytes, std::memory_order_relaxed)) {
+        std::atomic<uint64_t> &largest = testing::largest_plan_bytes;
+        uint64_t seen = largest.load(std::memory_order_relaxed);
+        while (bytes > seen && !largest.compare_exchange_weak(seen, bytes, std::memory_order_relaxed)) {
         }
     }
 
@@ -220,9 +221,9 @@ struct ChosenSource {
 
 /// Collapsing: a wide node starts as its binary node's two children and
 /// opens the child of largest area until it has eight children or only
-/// leaves (binary leaves, or packet leaves with packets); with packets, the
-/// subtrees that tasks take follow their SAH plan instead
-/// (bvh/collapse_plan.h).
+/// leaves (binary leaves, or packet leaves with packets); with packets and
+/// CollapseRule::Planned, the subtrees that tasks take follow their SAH plan
+/// instead (bvh/collapse_plan.h).
 template <class Source> class Collapser {
 public:
     using Handle = typename Source::Handle;
