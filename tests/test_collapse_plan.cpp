@@ -211,11 +211,7 @@ void test_default_layout_lanes_by_area(void **) {
                 const aacbvh::Wide8Node &node = wide.nodes()[w];
                 float previous = 0.0f;
                 for (int k = 0; k < 8 && node.child[k] != aacbvh::Wide8Node::kEmptyChild; ++k) {
-                    aacbvh::Box b;
-                    for (int a = 0; a < 3; ++a) {
-                        b.lo[a] = node.box[2 * a][k];
-                        b.hi[a] = node.box[2 * a + 1][k];
-                    }
+                    const aacbvh::Box b = node.slot_box(k);
                     if (k > 0 && b.half_area() > previous)
                         fail_msg("builder %d: wide node %zu, lane %d after a smaller box", int(builder), w, k);
                     ordered += k > 0;
@@ -241,12 +237,7 @@ double model_cost(const aacbvh::Wide8Bvh &wide) {
     for (size_t w = 0; w < wide.node_count(); ++w) {
         const aacbvh::Wide8Node &node = wide.nodes()[w];
         for (int k = 0; k < 8 && node.child[k] != aacbvh::Wide8Node::kEmptyChild; ++k) {
-            aacbvh::Box b;
-            for (int a = 0; a < 3; ++a) {
-                b.lo[a] = node.box[2 * a][k];
-                b.hi[a] = node.box[2 * a + 1][k];
-            }
-            const double area = b.half_area();
+            const double area = node.slot_box(k).half_area();
             cost += node.count[k] == 0 ? area * aacbvh::kWideNodeCost : area * aacbvh::kPacketCost * node.count[k];
         }
     }

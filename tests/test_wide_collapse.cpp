@@ -86,12 +86,7 @@ void check_tree(const aacbvh::Bvh &bvh, aacbvh::Scheduler &scheduler, const char
         const aacbvh::Wide8Node &node = wide.nodes()[w];
         float previous = 0.0f;
         for (int k = 0; k < 8 && node.child[k] != aacbvh::Wide8Node::kEmptyChild; ++k) {
-            aacbvh::Box b;
-            for (int a = 0; a < 3; ++a) {
-                b.lo[a] = node.box[2 * a][k];
-                b.hi[a] = node.box[2 * a + 1][k];
-            }
-            const float area = b.half_area();
+            const float area = node.slot_box(k).half_area();
             if (k > 0 && area > previous)
                 fail_msg("%s: wide node %zu, lane %d has area %g after %g", what, w, k, double(area), double(previous));
             ordered_pairs += k > 0;

@@ -69,6 +69,16 @@ struct alignas(64) Wide8Node {
     float box[6][8];
     uint32_t child[8];
     uint32_t count[8];
+
+    /// Child k's box (an unused slot's is empty: lo +inf, hi -inf).
+    Box slot_box(int k) const {
+        Box b;
+        for (int a = 0; a < 3; ++a) {
+            b.lo[a] = box[2 * a][k];
+            b.hi[a] = box[2 * a + 1][k];
+        }
+        return b;
+    }
 };
 
 static_assert(sizeof(Wide8Node) == 256, "Wide8Node must be 256 bytes");
