@@ -85,7 +85,7 @@ void refill_packet(TrianglePacket &p, const Geometry &g) {
 ///
 /// Plain vectors: they grow as the collapse goes, and the build allocator
 /// would make each growth an allocation-failure test point (thousands per
-/// tree); PieceBytes counts them in the build's peak instead.
+/// tree); MeteredBytes counts them in the build's peak instead.
 struct CollapsePiece {
     std::vector<uint32_t> sources;      ///< 8 per wide node: the binary node behind each slot
     std::vector<uint32_t> fields;       ///< 16 per wide node: child[8], count[8]
@@ -98,48 +98,32 @@ struct CollapsePiece {
     }
 };
 
-/// The pieces' bytes in the build's memory meter (when one is installed)
-/// while they live.
-class PieceBytes {
+/// Bytes of plain vectors (the collapse's pieces, a task's plan) in the
+/// build's memory meter, when one is installed, while they live: set() says
+/// how many there are now.
+class MeteredBytes {
 public:
-    explicit PieceBytes(const std::vector<CollapsePiece> &pieces) : meter_(MemoryMeter::current()) {
-        for (const CollapsePiece &p : pieces) bytes_ += int64_t(p.held_bytes());
-        if (meter_) meter_->add(bytes_);
-    }
-    ~PieceBytes() {
-        if (meter_) meter_->add(-bytes_);
-    }
-    PieceBytes(const PieceBytes &) = delete;
-    PieceBytes &operator=(const PieceBytes &) = delete;
-
-private:
-    MemoryMeter *meter_;
-    int64_t bytes_ = 0;
-};
-
-/// Bytes that grow as a task's plan grows (SubtreePlan::held_bytes()), in
-/// the build's memory meter (when one is installed) while they live.
-class PlanBytes {
-public:
-    explicit PlanBytes(MemoryMeter *meter) : meter_(meter) {}
-    ~PlanBytes() {
-        if (meter_) meter_->add(-bytes_);
-    }
-    PlanBytes(const PlanBytes &) = delete;
-    PlanBytes &operator=(const PlanBytes &) = delete;
+    explicit MeteredBytes(MemoryMeter *meter) : meter_(meter) {}
+    ~MeteredBytes() { set(0); }
+    MeteredBytes(const MeteredBytes &) = delete;
+    MeteredBytes &operator=(const MeteredBytes &) = delete;
     void set(size_t bytes) {
         if (meter_) meter_->add(int64_t(bytes) - bytes_);
         bytes_ = int64_t(bytes);
-        std::atomic<uint64_t> &largest = testing::largest_plan_bytes;
-        uint64_t seen = largest.load(std::memory_order_relaxed);
-        while (bytes > seen && !largest.compare_exchange_weak(seen, bytes, std::memory_order_relaxed)) {
-        }
     }
 
 private:
     MemoryMeter *meter_;
     int64_t bytes_ = 0;
 };
+
+/// testing::largest_plan_bytes raised to `bytes` where they are more.
+void note_plan_bytes(uint64_t bytes) {
+    std::atomic<uint64_t> &largest = testing::largest_plan_bytes;
+    uint64_t seen = largest.load(std::memory_order_relaxed);
+    while (bytes > seen && !largest.compare_exchange_weak(seen, bytes, std::memory_order_relaxed)) {
+    }
+}
 
 /// An inner child handed to a task: its child field holds the task's index
 /// with this bit until the pieces are placed.
@@ -340,15 +324,13 @@ void Wide8Bvh::build_from(const Source &source, typename Source::Handle root, co
     collapser.run(root, pieces[0], packets ? &tasks : nullptr);
     pieces.resize(1 + tasks.size());
     scheduler.parallel_for(0, tasks.size(), 1, [&](size_t b, size_t e) {
-        if (rule == CollapseRule::LargestFirst) {
-            for (size_t t = b; t < e; ++t) collapser.run(tasks[t], pieces[1 + t], nullptr);
-            return;
-        }
         SubtreePlan<Source> plan(source); // its arrays serve each task in turn
-        PlanBytes counted(MemoryMeter::current()); // the build's, on any thread (Scheduler)
+        SubtreePlan<Source> *const planned = rule == CollapseRule::Planned ? &plan : nullptr;
+        MeteredBytes plan_bytes(MemoryMeter::current()); // the build's, on any thread (Scheduler)
         for (size_t t = b; t < e; ++t) {
-            collapser.run(tasks[t], pieces[1 + t], nullptr, &plan);
-            counted.set(plan.held_bytes());
+            collapser.run(tasks[t], pieces[1 + t], nullptr, planned);
+            plan_bytes.set(plan.held_bytes());
+            note_plan_bytes(plan.held_bytes());
         }
     });
     // Only the boxes of the source are read from here on: a caller may free
@@ -362,7 +344,10 @@ void Wide8Bvh::build_from(const Source &source, typename Source::Handle root, co
         next += uint32_t(piece.node_count());
         next_packet += uint32_t(piece.packet_slots.size());
     }
-    std::unique_ptr<PieceBytes> piece_bytes(new PieceBytes(pieces));
+    MeteredBytes piece_bytes(MemoryMeter::current());
+    size_t held = 0;
+    for (const CollapsePiece &piece : pieces) held += piece.held_bytes();
+    piece_bytes.set(held);
     Array<uint32_t> sources(8 * size_t(next));
     Array<uint32_t> fields(16 * size_t(next)); // child[8], count[8] per wide node
     Array<uint32_t> packet_slots(next_packet);
@@ -391,7 +376,7 @@ void Wide8Bvh::build_from(const Source &source, typename Source::Handle root, co
         }
     });
     std::vector<CollapsePiece>().swap(pieces);
-    piece_bytes.reset();
+    piece_bytes.set(0);
 
     // Pass 2, in parallel: nodes and packets.
     constexpr size_t kAhead = 8;
