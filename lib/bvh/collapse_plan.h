@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "bvh/packet_leaf_sweep.h"
+#include "bvh/wide_collapse.h"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -90,20 +91,12 @@ public:
         int m = 0;
         const Node &n = nodes_[node];
         const uint32_t j = share(n.word, 8);
-        assign(n.left, j, kids, leaf, m);
-        assign(n.left + 1, 8 - j, kids, leaf, m);
-        for (int k = 1; k < m; ++k) { // insertion sort, stable
-            const uint32_t kid = kids[k];
-            const bool is_leaf = leaf[k];
-            const float a = nodes_[kid].area;
-            int i = k;
-            for (; i > 0 && nodes_[kids[i - 1]].area < a; --i) {
-                kids[i] = kids[i - 1];
-                leaf[i] = leaf[i - 1];
-            }
-            kids[i] = kid;
-            leaf[i] = is_leaf;
-        }
+        assign(n.left, j, kids, m);
+        assign(n.left + 1, 8 - j, kids, m);
+        float area[8];
+        for (int k = 0; k < m; ++k) area[k] = nodes_[kids[k]].area;
+        sort_largest_first(m, kids, area);
+        for (int k = 0; k < m; ++k) leaf[k] = (nodes_[kids[k]].word & kLeafBit) != 0;
         return m;
     }
 
@@ -237,17 +230,17 @@ private:
 #endif
     }
 
-    /// Spreads `k` slots over the subtree of planned node `x`.
-    void assign(uint32_t x, uint32_t k, uint32_t (&kids)[8], bool (&leaf)[8], int &m) const {
+    /// Spreads `k` slots over the subtree of planned node `x`. A child it
+    /// takes whole is one packet leaf where its kLeafBit says so.
+    void assign(uint32_t x, uint32_t k, uint32_t (&kids)[8], int &m) const {
         const Node &n = nodes_[x];
         if (k == 1 || (n.word & kWholeBit) != 0 || takes_one(n.word, int(k))) {
-            kids[m] = x;
-            leaf[m++] = (n.word & kLeafBit) != 0;
+            kids[m++] = x;
             return;
         }
         const uint32_t j = share(n.word, int(k));
-        assign(n.left, j, kids, leaf, m);
-        assign(n.left + 1, k - j, kids, leaf, m);
+        assign(n.left, j, kids, m);
+        assign(n.left + 1, k - j, kids, m);
     }
 
     const Source &source_;

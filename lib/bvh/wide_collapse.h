@@ -9,6 +9,24 @@
 
 namespace aacbvh {
 
+/// kids[0, m) reordered by area[0, m) (moved along), largest first, equals
+/// in the order given (a stable insertion sort): the order of a wide node's
+/// children that the traversals read (open_largest(), below, and the
+/// planned collapse, bvh/collapse_plan.h).
+template <class Handle> void sort_largest_first(int m, Handle *kids, float *area) {
+    for (int k = 1; k < m; ++k) {
+        const Handle kid = kids[k];
+        const float a = area[k];
+        int i = k;
+        for (; i > 0 && area[i - 1] < a; --i) {
+            kids[i] = kids[i - 1];
+            area[i] = area[i - 1];
+        }
+        kids[i] = kid;
+        area[i] = a;
+    }
+}
+
 /// The children of the wide node over binary node `root` of `source` (a
 /// Source: Handle, is_leaf(h), half_area(h), children(h, l, r), and
 /// prefetch_children(h), a hint that h may be opened next): its two binary
@@ -59,17 +77,7 @@ int open_largest(const Source &source, typename Source::Handle root, typename So
         join(open, l);
         join(m++, r);
     }
-    for (int k = 1; k < m; ++k) { // insertion sort, stable
-        const Handle kid = kids[k];
-        const float a = area[k];
-        int i = k;
-        for (; i > 0 && area[i - 1] < a; --i) {
-            kids[i] = kids[i - 1];
-            area[i] = area[i - 1];
-        }
-        kids[i] = kid;
-        area[i] = a;
-    }
+    sort_largest_first(m, kids, area);
     return m;
 }
 
