@@ -539,6 +539,9 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
     rays.height = opt.height;
     rays.rays[kPrimary] = make_primary_rays(res.camera, opt.width, opt.height);
     std::vector<RaySets> views;  // the in-scene views' rays, made the same way
+    // The default tree (AAC-HQ, one thread) that made the rays: kept for the
+    // head-to-head with Embree's scene, our passes alternating with its.
+    BvhPtr default_bvh;
     {
         std::string err;
         BvhPtr ref = make_bvh(ctx1, scene, AACBVH_BUILDER_AAC_HQ, opt, err);
@@ -571,6 +574,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
                 for (const aacbvh_hit &h : vhits) vr.primary_hits += h.prim_id != AACBVH_INVALID_ID;
                 views.push_back(std::move(vr));
             }
+            default_bvh = std::move(ref);
         }
     }
     res.views = uint32_t(views.size());
@@ -719,13 +723,31 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
                 measure_views(tree, scene, views, nullptr, opt.runs, row);
             }
         } else {  // embree-scene
+            // One pass of the default tree over a ray kind, for the head-to-head.
+            std::vector<aacbvh_hit> our_hits;
+            std::vector<uint8_t> our_occluded;
+            OurPass ours;
+            if (default_bvh)
+                ours = [&](int kind) {
+                    const std::vector<aacbvh_ray> &set = rays.rays[kind];
+                    our_hits.resize(set.size());
+                    our_occluded.resize(set.size());
+                    const auto t0 = Clock::now();
+                    const aacbvh_status s =
+                        kind == kShadow
+                            ? aacbvh_bvh_occluded(default_bvh.get(), set.data(), our_occluded.data(), set.size())
+                            : aacbvh_bvh_intersect(default_bvh.get(), set.data(), our_hits.data(), set.size());
+                    const double sec = std::chrono::duration<double>(Clock::now() - t0).count();
+                    return s == AACBVH_OK ? sec : -1.0;
+                };
             for (size_t ti = 0; ti < opt.threads.size() && row.status == "ok"; ++ti) {
                 std::vector<double> seconds;
                 std::string err;
                 uint64_t hits[kRayKindCount] = {0, 0, 0};
                 double scene_bytes = 0.0;
                 if (!embree_scene_bench(scene.vertices, scene.indices, opt.threads[ti], opt.runs,
-                                        ti == 0 ? &rays : nullptr, seconds, row.mrays, hits, scene_bytes, err)) {
+                                        ti == 0 ? &rays : nullptr, seconds, row.mrays, hits, scene_bytes, err,
+                                        ti == 0 && default_bvh ? &ours : nullptr, ti == 0 ? res.head_to_head : nullptr)) {
                     row.status = "error";
                     row.note = err;
                 } else {

@@ -29,7 +29,7 @@ bool embree_build_bvh(const std::vector<float> &, const std::vector<uint32_t> &,
 
 bool embree_scene_bench(const std::vector<float> &, const std::vector<uint32_t> &, uint32_t, int, const RaySets *,
                         std::vector<double> &, double[kRayKindCount], uint64_t[kRayKindCount], double &,
-                        std::string &err) {
+                        std::string &err, const OurPass *, double[kRayKindCount]) {
     err = "Embree not compiled in";
     return false;
 }
@@ -254,7 +254,7 @@ bool embree_build_bvh(const std::vector<float> &vertices, const std::vector<uint
 bool embree_scene_bench(const std::vector<float> &vertices, const std::vector<uint32_t> &indices,
                         uint32_t threads, int runs, const RaySets *rays, std::vector<double> &seconds,
                         double mrays[kRayKindCount], uint64_t hits[kRayKindCount], double &scene_bytes,
-                        std::string &err) {
+                        std::string &err, const OurPass *ours, double head_to_head[kRayKindCount]) {
     Device dev(threads);
     const int64_t device_bytes = dev.bytes.load();
     if (!dev.device) {
@@ -293,7 +293,8 @@ bool embree_scene_bench(const std::vector<float> &vertices, const std::vector<ui
     if (rays && scene) {
         for (int kind = 0; kind < kRayKindCount; ++kind) {
             const std::vector<aacbvh_ray> &set = rays->rays[kind];
-            std::vector<double> times;
+            std::vector<double> times, ratios;
+            bool ours_failed = false;
             uint64_t hit_count = 0;
             for (int run = 0; run < runs; ++run) {
                 hit_count = 0;
@@ -312,10 +313,18 @@ bool embree_scene_bench(const std::vector<float> &vertices, const std::vector<ui
                     }
                 }
                 times.push_back(seconds_since(t0));
+                if (ours && *ours) {
+                    const double our_seconds = (*ours)(kind);
+                    ours_failed |= !(our_seconds > 0.0);
+                    ratios.push_back(times.back() / our_seconds);
+                }
             }
             const double t = median(times);
             mrays[kind] = t > 0.0 ? set.size() / t * 1e-6 : std::numeric_limits<double>::quiet_NaN();
             hits[kind] = hit_count;
+            if (head_to_head)
+                head_to_head[kind] =
+                    ours && *ours && !ours_failed ? median(ratios) : std::numeric_limits<double>::quiet_NaN();
         }
     }
     if (scene) rtcReleaseScene(scene);

@@ -15,6 +15,7 @@
 #include "rays.h"
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -37,14 +38,26 @@ bool embree_build_bvh(const std::vector<float> &vertices, const std::vector<uint
                       EmbreeQuality quality, uint32_t threads, int runs, uint32_t max_leaf_size, bool reuse_bvh,
                       std::vector<double> &seconds, FlatTree *tree, std::string &err);
 
+/// One pass of our own traversal over a ray kind's set, for a head-to-head:
+/// returns the seconds it took, or a negative number when the call failed.
+using OurPass = std::function<double(int kind)>;
+
 /// Embree's own acceleration structure: builds the scene `runs` times on a device
 /// of `threads` threads (seconds per run appended to `seconds`). When rays is not
 /// NULL, then times rtcIntersect1 (primary, diffuse) and rtcOccluded1 (shadow)
 /// over the ray sets, `runs` times each, and stores the median Mrays/s per kind
 /// and the hits per kind (closest hits, occluded shadow rays).
+///
+/// With `ours` (and rays), each of Embree's timed passes is followed by one
+/// of ours over the same rays, and head_to_head[kind] is the median over the
+/// `runs` rounds of Embree's time over ours (above 1: we trace faster), NaN
+/// where one of our passes failed: a ratio of two passes taken a moment
+/// apart, which the machine's drift between sittings (a tenth on a shared
+/// VM) moves far less than a ratio of medians taken minutes apart.
 bool embree_scene_bench(const std::vector<float> &vertices, const std::vector<uint32_t> &indices,
                         uint32_t threads, int runs, const RaySets *rays, std::vector<double> &seconds,
                         double mrays[kRayKindCount], uint64_t hits[kRayKindCount], double &scene_bytes,
-                        std::string &err);
+                        std::string &err, const OurPass *ours = nullptr,
+                        double head_to_head[kRayKindCount] = nullptr);
 
 }  // namespace bench

@@ -88,6 +88,11 @@ struct SceneResult {
     uint32_t views = 0;                     ///< in-scene views (0: none measured)
     uint32_t view_width = 0, view_height = 0;  ///< primary rays per view
     uint64_t view_ray_counts[kRayKindCount] = {0, 0, 0};  ///< over all views
+    /// The default tree (AAC-HQ) against Embree's scene on the camera's rays,
+    /// passes alternating (embree_bench.h): the median over the rounds of
+    /// Embree's time over ours per kind (above 1: we trace faster); NaN when
+    /// not measured.
+    double head_to_head[kRayKindCount] = {kNaN, kNaN, kNaN};
     std::vector<Row> rows;
 
     /// Fills every row's `views` from its view_samples, the relative figures

@@ -163,6 +163,38 @@ void test_json_round_trip() {
     CHECK(!read_json("test_report_no_such_file.json", back, back_info, err));
 }
 
+// The head-to-head throughput ratios (AAC-HQ against Embree's scene, passes
+// alternating): the Markdown report's Embree table takes them over the ratio of
+// the two rows' medians, and they go through the JSON; a scene without them
+// writes no head_to_head key.
+void test_head_to_head() {
+    SceneResult s = make_scene("duel", true);
+    Row embree = make_row("embree-scene", "Embree scene", 30.0, 1.0);
+    for (int k = 0; k < kRayKindCount; ++k) embree.mrays[k] = 12.0;  // rows' ratio: 3.09 / 12 = 0.26x
+    s.rows.push_back(embree);
+    const double h2h[kRayKindCount] = {1.25, 0.5, 2.0};
+    for (int k = 0; k < kRayKindCount; ++k) s.head_to_head[k] = h2h[k];
+    RunInfo info = make_info();
+    info.embree_version = "3.13.5 (test)";
+    std::string err;
+    CHECK(write_markdown("test_report_h2h.md", {s}, info, err));
+    const std::string md = slurp("test_report_h2h.md");
+    CHECK(md.find("| 1.25x, 0.50x, 2.00x |") != std::string::npos);
+    CHECK(md.find("0.26x, 0.26x") == std::string::npos);
+    CHECK(write_json("test_report_h2h.json", {s}, info, err));
+    std::vector<SceneResult> back;
+    CHECK(read_json("test_report_h2h.json", back, info, err));
+    CHECK(back.size() == 1);
+    if (back.size() == 1)
+        for (int k = 0; k < kRayKindCount; ++k) CHECK(same(back[0].head_to_head[k], h2h[k]));
+    // Without it: no key, and the table falls back to the rows' medians.
+    for (int k = 0; k < kRayKindCount; ++k) s.head_to_head[k] = kNaN;
+    CHECK(write_json("test_report_h2h.json", {s}, info, err));
+    CHECK(slurp("test_report_h2h.json").find("head_to_head") == std::string::npos);
+    CHECK(write_markdown("test_report_h2h.md", {s}, info, err));
+    CHECK(slurp("test_report_h2h.md").find("0.26x, 0.26x, 0.26x") != std::string::npos);
+}
+
 void test_svg() {
     const std::vector<SceneResult> scenes = {make_scene("alpha", true), make_scene("gamma", true),
                                              make_scene("beta", false)};
@@ -323,6 +355,7 @@ int main() {
     test_timed_worst_skips_small_views();
     test_one_view_mean_not_above_worst();
     test_json_round_trip();
+    test_head_to_head();
     test_svg();
     return bench_test::finish("test_report");
 }
