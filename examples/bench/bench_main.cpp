@@ -539,9 +539,6 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
     rays.height = opt.height;
     rays.rays[kPrimary] = make_primary_rays(res.camera, opt.width, opt.height);
     std::vector<RaySets> views;  // the in-scene views' rays, made the same way
-    // The default tree (AAC-HQ, one thread) that made the rays: kept for the
-    // head-to-head with Embree's scene, our passes alternating with its.
-    BvhPtr default_bvh;
     {
         std::string err;
         BvhPtr ref = make_bvh(ctx1, scene, AACBVH_BUILDER_AAC_HQ, opt, err);
@@ -574,7 +571,6 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
                 for (const aacbvh_hit &h : vhits) vr.primary_hits += h.prim_id != AACBVH_INVALID_ID;
                 views.push_back(std::move(vr));
             }
-            default_bvh = std::move(ref);
         }
     }
     res.views = uint32_t(views.size());
@@ -723,15 +719,21 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
                 measure_views(tree, scene, views, nullptr, opt.runs, row);
             }
         } else {  // embree-scene
-            // One pass of the default tree over a ray kind, for the head-to-head.
-            std::vector<aacbvh_hit> our_hits;
-            std::vector<uint8_t> our_occluded;
+            // The head-to-head: the default tree (AAC-HQ, one thread), built
+            // now as Embree's scene is, so that neither has sat idle for
+            // minutes, each of Embree's passes followed by one of ours over
+            // the same rays.
+            size_t most_rays = 0;
+            for (int k = 0; k < kRayKindCount; ++k) most_rays = std::max(most_rays, rays.rays[k].size());
+            std::vector<aacbvh_hit> our_hits(most_rays);
+            std::vector<uint8_t> our_occluded(most_rays);
+            std::string duel_err;
+            BvhPtr default_bvh = make_bvh(ctx1, scene, AACBVH_BUILDER_AAC_HQ, opt, duel_err);
+            if (default_bvh && aacbvh_bvh_build(default_bvh.get()) != AACBVH_OK) default_bvh.reset();
             OurPass ours;
             if (default_bvh)
                 ours = [&](int kind) {
                     const std::vector<aacbvh_ray> &set = rays.rays[kind];
-                    our_hits.resize(set.size());
-                    our_occluded.resize(set.size());
                     const auto t0 = Clock::now();
                     const aacbvh_status s =
                         kind == kShadow

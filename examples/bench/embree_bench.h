@@ -49,11 +49,12 @@ using OurPass = std::function<double(int kind)>;
 /// and the hits per kind (closest hits, occluded shadow rays).
 ///
 /// With `ours` (and rays), each of Embree's timed passes is followed by one
-/// of ours over the same rays, and head_to_head[kind] is the median over the
-/// `runs` rounds of Embree's time over ours (above 1: we trace faster), NaN
-/// where one of our passes failed: a ratio of two passes taken a moment
-/// apart, which the machine's drift between sittings (a tenth on a shared
-/// VM) moves far less than a ratio of medians taken minutes apart.
+/// of ours over the same rays, after one such round that is not counted, and
+/// head_to_head[kind] is the median over the `runs` rounds of Embree's time
+/// over ours (above 1: we trace faster), NaN where one of our passes failed:
+/// a ratio of two passes taken a moment apart, which the machine's drift
+/// between sittings (a tenth on a shared VM) moves far less than a ratio of
+/// medians taken minutes apart.
 bool embree_scene_bench(const std::vector<float> &vertices, const std::vector<uint32_t> &indices,
                         uint32_t threads, int runs, const RaySets *rays, std::vector<double> &seconds,
                         double mrays[kRayKindCount], uint64_t hits[kRayKindCount], double &scene_bytes,
