@@ -17,6 +17,7 @@ extern "C" {
 #include <cmocka.h>
 }
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -348,6 +349,95 @@ void test_pixel_runs(void **) {
     }
 }
 
+/// A ground of quads (y = 0) under a roof of quads (y = 0.5) that covers
+/// x < 0.6 with every fifth quad left out, small triangles strewn between
+/// them, and a light above: shadow rays from the ground in scanline order,
+/// eight neighbours a run, so that runs in a row are stopped by one roof
+/// leaf (the runs of eight remember the last occluder and test it first,
+/// LastOccluder in trace/wide8_kernel_x86.inl), pass through a hole, or
+/// reach the light from the open side; every third ray's window ends
+/// before the roof (the remembered leaf would stop the whole ray, not the
+/// window). Every kernel answers as the binary traversal.
+void test_shadow_runs_one_occluder(void **) {
+    constexpr int kGround = 24, kRoof = 10;
+    std::vector<float> v;
+    std::vector<uint32_t> idx;
+    auto quad = [&](float x0, float z0, float x1, float z1, float y) {
+        const uint32_t base = uint32_t(v.size() / 3);
+        const float corners[4][3] = {{x0, y, z0}, {x1, y, z0}, {x1, y, z1}, {x0, y, z1}};
+        for (const auto &c : corners) v.insert(v.end(), c, c + 3);
+        const uint32_t t[6] = {base, base + 1, base + 2, base, base + 2, base + 3};
+        idx.insert(idx.end(), t, t + 6);
+    };
+    for (int i = 0; i < kGround; ++i)
+        for (int j = 0; j < kGround; ++j)
+            quad(float(i) / kGround, float(j) / kGround, float(i + 1) / kGround, float(j + 1) / kGround, 0.0f);
+    for (int i = 0; i < kRoof; ++i)
+        for (int j = 0; j < kRoof; ++j)
+            if ((i * kRoof + j) % 5 != 3)
+                quad(0.6f * i / kRoof, float(j) / kRoof, 0.6f * (i + 1) / kRoof, float(j + 1) / kRoof, 0.5f);
+    ts_rng rng;
+    ts_rng_seed(&rng, 4242);
+    for (int k = 0; k < 300; ++k) { // clutter between ground and roof
+        const uint32_t base = uint32_t(v.size() / 3);
+        const float c[3] = {ts_rng_range(&rng, 0.0f, 1.0f), ts_rng_range(&rng, 0.1f, 0.45f), ts_rng_range(&rng, 0.0f, 1.0f)};
+        for (int corner = 0; corner < 3; ++corner)
+            for (int a = 0; a < 3; ++a) v.push_back(c[a] + ts_rng_range(&rng, -0.01f, 0.01f));
+        idx.push_back(base);
+        idx.push_back(base + 1);
+        idx.push_back(base + 2);
+    }
+    ts_mesh mesh;
+    mesh.vertex_count = v.size() / 3;
+    mesh.triangle_count = idx.size() / 3;
+    mesh.vertices = static_cast<float *>(std::malloc(v.size() * sizeof(float)));
+    mesh.indices = static_cast<uint32_t *>(std::malloc(idx.size() * sizeof(uint32_t)));
+    assert_non_null(mesh.vertices);
+    assert_non_null(mesh.indices);
+    std::copy(v.begin(), v.end(), mesh.vertices);
+    std::copy(idx.begin(), idx.end(), mesh.indices);
+
+    const float light[3] = {0.8f, 2.0f, 0.5f};
+    constexpr int kSide = 64;
+    std::vector<aacbvh_ray> rays(size_t(kSide) * kSide);
+    for (int j = 0; j < kSide; ++j)
+        for (int i = 0; i < kSide; ++i) {
+            aacbvh_ray &r = rays[size_t(j) * kSide + i];
+            const float org[3] = {(i + 0.5f) / kSide, 1e-4f, (j + 0.5f) / kSide};
+            for (int a = 0; a < 3; ++a) {
+                r.org[a] = org[a];
+                r.dir[a] = light[a] - org[a];
+            }
+            r.tmin = 0.0f;
+            r.tmax = (i + j) % 3 == 0 ? 0.2f : 0.9999f; // 0.2: ends below the roof (t = 0.25)
+        }
+    for (uint32_t threads = kFirstThreads; threads <= 2; ++threads) {
+        aacbvh_context *ctx = nullptr;
+        TS_EXPECT_STATUS(aacbvh_context_create(threads, &ctx), AACBVH_OK);
+        aacbvh_bvh *ref = nullptr, *wide = nullptr;
+        make_built_pair(ctx, mesh, ref, wide);
+        std::vector<uint8_t> occluded(rays.size());
+        TS_EXPECT_STATUS(aacbvh_bvh_occluded(ref, rays.data(), occluded.data(), rays.size()), AACBVH_OK);
+        size_t stopped = 0, stopped_short = 0;
+        for (size_t k = 0; k < rays.size(); ++k) {
+            stopped += occluded[k];
+            stopped_short += occluded[k] && rays[k].tmax < 0.5f;
+        }
+        // The scene does what it is for: most full rays under the roof are
+        // stopped, the open side and the holes let others through, and the
+        // short windows are stopped by clutter at most.
+        assert_true(stopped > rays.size() / 4 && stopped < rays.size() * 3 / 4);
+        assert_true(stopped_short < stopped / 3);
+        char what[96];
+        std::snprintf(what, sizeof what, "shadow runs under one roof, %u threads", threads);
+        assert_true(compare_kernels(ref, wide, rays.data(), rays.size(), what) >= 1);
+        aacbvh_bvh_destroy(ref);
+        aacbvh_bvh_destroy(wide);
+        aacbvh_context_destroy(ctx);
+    }
+    ts_mesh_free(&mesh);
+}
+
 } // namespace
 
 int main(void) {
@@ -358,6 +448,7 @@ int main(void) {
         cmocka_unit_test(test_boxes),
         cmocka_unit_test(test_rays_from_outside),
         cmocka_unit_test(test_pixel_runs),
+        cmocka_unit_test(test_shadow_runs_one_occluder),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }

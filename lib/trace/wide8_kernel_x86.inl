@@ -246,25 +246,33 @@ inline RayLanes make_ray_lanes(const aacbvh_ray *rays) {
     return w;
 }
 
-/// Child k of `node` against the packet: test_children<true, ...>()'s test
-/// of that child, lane for lane with the rays in the lanes (the same
-/// operations in the same order); each lane's clipped entry into `entry`.
-[[gnu::always_inline]] inline unsigned test_child_lanes(const Wide8Node &node, int k, const RayLanes &r,
-                                                        __m256 bound, __m256 &entry) {
-    const __m256 nx = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(&node.box[r.near[0]][k]), r.neg_org[0]), r.inv[0]);
-    const __m256 ny = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(&node.box[r.near[1]][k]), r.neg_org[1]), r.inv[1]);
-    const __m256 nz = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(&node.box[r.near[2]][k]), r.neg_org[2]), r.inv[2]);
+/// A box whose six planes (lo x, hi x, lo y, hi y, lo z, hi z, Wide8Node's
+/// row order) lie `stride` floats apart from `rows`, against the packet:
+/// test_children<true, ...>()'s test of one child, lane for lane with the
+/// rays in the lanes (the same operations in the same order); each lane's
+/// clipped entry into `entry`.
+[[gnu::always_inline]] inline unsigned test_box_lanes(const float *rows, size_t stride, const RayLanes &r,
+                                                      __m256 bound, __m256 &entry) {
+    const __m256 nx = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(rows + r.near[0] * stride), r.neg_org[0]), r.inv[0]);
+    const __m256 ny = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(rows + r.near[1] * stride), r.neg_org[1]), r.inv[1]);
+    const __m256 nz = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(rows + r.near[2] * stride), r.neg_org[2]), r.inv[2]);
     __m256 a = _mm256_max_ps(nx, r.tmin);
     a = _mm256_max_ps(ny, a);
     a = _mm256_max_ps(nz, a);
-    const __m256 fx = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(&node.box[r.far[0]][k]), r.neg_org[0]), r.inv_far[0]);
-    const __m256 fy = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(&node.box[r.far[1]][k]), r.neg_org[1]), r.inv_far[1]);
-    const __m256 fz = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(&node.box[r.far[2]][k]), r.neg_org[2]), r.inv_far[2]);
+    const __m256 fx = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(rows + r.far[0] * stride), r.neg_org[0]), r.inv_far[0]);
+    const __m256 fy = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(rows + r.far[1] * stride), r.neg_org[1]), r.inv_far[1]);
+    const __m256 fz = _mm256_mul_ps(_mm256_add_ps(_mm256_broadcast_ss(rows + r.far[2] * stride), r.neg_org[2]), r.inv_far[2]);
     __m256 b = _mm256_min_ps(fx, bound);
     b = _mm256_min_ps(fy, b);
     b = _mm256_min_ps(fz, b);
     entry = a;
     return unsigned(_mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OS)));
+}
+
+/// Child k of `node` against the packet (test_box_lanes()).
+[[gnu::always_inline]] inline unsigned test_child_lanes(const Wide8Node &node, int k, const RayLanes &r,
+                                                        __m256 bound, __m256 &entry) {
+    return test_box_lanes(&node.box[0][k], 8, r, bound, entry);
 }
 
 /// The smallest and largest lane of v.
@@ -447,6 +455,38 @@ struct AnyPacketEntry {
     uint32_t lanes; ///< bit i: ray i enters the child
 };
 
+/// The packet leaf that last occluded a ray of a batch's runs of eight, and
+/// its box (its triangles' bounds, made from the packets when it is
+/// remembered): coherent shadow rays (from neighbouring pixels toward one
+/// light) are often stopped by the same wall or roof, so the next run tests
+/// that leaf first, and the lanes it occludes need no walk. Only a shortcut:
+/// a lane it does not occlude is walked as before, so the answers do not
+/// depend on it (docs/PERFORMANCE.md, row 283).
+struct LastOccluder {
+    uint32_t first = 0; ///< the leaf's first packet
+    uint32_t count = 0; ///< its packets; 0: none remembered
+    float rows[6] = {};  ///< lo x, hi x, lo y, hi y, lo z, hi z (Wide8Node's row order)
+
+    void remember(const TrianglePacket *packets, uint32_t leaf_first, uint32_t leaf_count) {
+        if (count == leaf_count && first == leaf_first) return;
+        first = leaf_first;
+        count = leaf_count;
+        for (int a = 0; a < 3; ++a) {
+            __m128 lo = _mm_load_ps(packets[first].v[0][a]), hi = lo;
+            for (uint32_t j = 0; j < count; ++j)
+                for (int i = 0; i < 3; ++i) {
+                    const __m128 v = _mm_load_ps(packets[first + j].v[i][a]);
+                    lo = _mm_min_ps(lo, v);
+                    hi = _mm_max_ps(hi, v);
+                }
+            lo = _mm_min_ps(lo, _mm_movehl_ps(lo, lo));
+            hi = _mm_max_ps(hi, _mm_movehl_ps(hi, hi));
+            rows[2 * a] = _mm_cvtss_f32(_mm_min_ss(lo, _mm_shuffle_ps(lo, lo, 1)));
+            rows[2 * a + 1] = _mm_cvtss_f32(_mm_max_ss(hi, _mm_shuffle_ps(hi, hi, 1)));
+        }
+    }
+};
+
 /// Any hits of rays[0, 8) (packet_eligible()) over a tree with packet
 /// leaves into out[0, 8), walked together as intersect_packet() walks them:
 /// a lane leaves the packet at its first hit; no child order (the largest
@@ -454,7 +494,10 @@ struct AnyPacketEntry {
 /// node tests' (an any-hit window never shrinks). The answers are
 /// occluded_entry()'s: every box the single ray would enter is entered, and
 /// whether some triangle is hit does not depend on the visiting order.
-void occluded_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, uint8_t *out) {
+/// `last` (from the batch's earlier runs) is tested first, forgotten when it
+/// occludes none of the lanes, and replaced by the leaf of the walk's last
+/// occlusion.
+void occluded_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, uint8_t *out, LastOccluder &last) {
     const RayLanes r = make_ray_lanes(rays);
     TriangleRay tray[kPacketRays];
     PacketRay pray[kPacketRays];
@@ -468,9 +511,23 @@ void occluded_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, uint8_t *out)
     const __m256 bound = _mm256_load_ps(reach);
     const Wide8Node *nodes = wide.nodes();
     const TrianglePacket *packets = wide.packets();
+    constexpr unsigned kAllLanes = (1u << kPacketRays) - 1;
+    unsigned live = kAllLanes;
+    if (last.count != 0) {
+        __m256 unused;
+        for (unsigned left = test_box_lanes(last.rows, 1, r, bound, unused); left != 0; left &= left - 1) {
+            const int i = __builtin_ctz(left);
+            HitRecord<true> best(rays[i].tmax);
+            if (test_packets<true>(packets + last.first, last.count, tray[i], pray[i], rays[i].tmin, best)) {
+                out[i] = 1;
+                live &= ~(1u << i);
+            }
+        }
+        if (live == kAllLanes) last.count = 0; // no longer the occluder here
+        if (live == 0) return;
+    }
     SpillBlock<AnyPacketEntry> spill;
     SpillStack<AnyPacketEntry, 192> stack(spill);
-    unsigned live = (1u << kPacketRays) - 1;
     AnyPacketEntry current{0u, 0u, live};
     for (;;) {
         if (current.count == 0) {
@@ -499,6 +556,7 @@ void occluded_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, uint8_t *out)
                                        best)) {
                     out[i] = 1;
                     live &= ~(1u << i);
+                    last.remember(packets, current.child, current.count);
                 }
             }
             if (live == 0) return;
@@ -512,11 +570,14 @@ void occluded_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, uint8_t *out)
 }
 
 /// One run of eight rays traced together, or one ray alone, into closest
-/// hits or occlusion flags (1: occluded): trace_runs()'s two steps.
-inline void trace_run(const Wide8Bvh &wide, const aacbvh_ray *rays, aacbvh_hit *hits) {
+/// hits or occlusion flags (1: occluded): trace_runs()'s two steps. Runs of
+/// occlusion queries share the last occluder found (LastOccluder).
+inline void trace_run(const Wide8Bvh &wide, const aacbvh_ray *rays, aacbvh_hit *hits, LastOccluder &) {
     intersect_packet(wide, rays, hits);
 }
-inline void trace_run(const Wide8Bvh &wide, const aacbvh_ray *rays, uint8_t *out) { occluded_packet(wide, rays, out); }
+inline void trace_run(const Wide8Bvh &wide, const aacbvh_ray *rays, uint8_t *out, LastOccluder &last) {
+    occluded_packet(wide, rays, out, last);
+}
 inline void trace_one(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray &ray,
                       aacbvh_hit &hit) {
     intersect_entry(wide, bvh, geometry, ray, hit);
@@ -535,11 +596,12 @@ template <class Out>
 inline void trace_runs(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray *rays,
                        Out *out, size_t count) {
     const bool packets = wide.node_count() != 0 && wide.has_packets() && geometry.kind == GeometryKind::Triangles;
+    LastOccluder last;
     size_t i = 0;
     if (packets)
         for (; i + kPacketRays <= count; i += kPacketRays) {
             if (packet_eligible(rays + i)) {
-                trace_run(wide, rays + i, out + i);
+                trace_run(wide, rays + i, out + i, last);
                 continue;
             }
             for (size_t k = i; k < i + kPacketRays; ++k) trace_one(wide, bvh, geometry, rays[k], out[k]);
