@@ -719,19 +719,24 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
                 measure_views(tree, scene, views, nullptr, opt.runs, row);
             }
         } else {  // embree-scene
-            // The head-to-head: the default tree (AAC-HQ, one thread), built
-            // now as Embree's scene is, so that neither has sat idle for
-            // minutes, each of Embree's passes followed by one of ours over
-            // the same rays.
-            size_t most_rays = 0;
-            for (int k = 0; k < kRayKindCount; ++k) most_rays = std::max(most_rays, rays.rays[k].size());
-            std::vector<aacbvh_hit> our_hits(most_rays);
-            std::vector<uint8_t> our_occluded(most_rays);
-            std::string duel_err;
-            BvhPtr default_bvh = make_bvh(ctx1, scene, AACBVH_BUILDER_AAC_HQ, opt, duel_err);
-            if (default_bvh && aacbvh_bvh_build(default_bvh.get()) != AACBVH_OK) default_bvh.reset();
-            OurPass ours;
-            if (default_bvh)
+            // The head-to-head (where Embree is compiled in): the default
+            // tree (AAC-HQ, one thread), built now as Embree's scene is, so
+            // that neither has sat idle for minutes, each of Embree's passes
+            // followed by one of ours over the same rays.
+            std::vector<aacbvh_hit> our_hits;
+            std::vector<uint8_t> our_occluded;
+            BvhPtr default_bvh;
+            if (embree_compiled()) {
+                std::string duel_err;
+                default_bvh = make_bvh(ctx1, scene, AACBVH_BUILDER_AAC_HQ, opt, duel_err);
+                if (default_bvh && aacbvh_bvh_build(default_bvh.get()) != AACBVH_OK) default_bvh.reset();
+            }
+            OurPass ours; // empty without a tree: no head-to-head
+            if (default_bvh) {
+                size_t most_rays = 0;
+                for (int k = 0; k < kRayKindCount; ++k) most_rays = std::max(most_rays, rays.rays[k].size());
+                our_hits.resize(most_rays);
+                our_occluded.resize(most_rays);
                 ours = [&](int kind) {
                     const std::vector<aacbvh_ray> &set = rays.rays[kind];
                     const auto t0 = Clock::now();
@@ -742,6 +747,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
                     const double sec = std::chrono::duration<double>(Clock::now() - t0).count();
                     return s == AACBVH_OK ? sec : -1.0;
                 };
+            }
             for (size_t ti = 0; ti < opt.threads.size() && row.status == "ok"; ++ti) {
                 std::vector<double> seconds;
                 std::string err;
@@ -749,7 +755,7 @@ SceneResult run_scene(const Scene &scene, const std::string &source, const Optio
                 double scene_bytes = 0.0;
                 if (!embree_scene_bench(scene.vertices, scene.indices, opt.threads[ti], opt.runs,
                                         ti == 0 ? &rays : nullptr, seconds, row.mrays, hits, scene_bytes, err,
-                                        ti == 0 && default_bvh ? &ours : nullptr, ti == 0 ? res.head_to_head : nullptr)) {
+                                        ti == 0 ? &ours : nullptr, ti == 0 ? res.head_to_head : nullptr)) {
                     row.status = "error";
                     row.note = err;
                 } else {
