@@ -357,7 +357,11 @@ void test_pixel_runs(void **) {
 /// LastOccluder in trace/wide8_kernel_x86.inl), pass through a hole, or
 /// reach the light from the open side; every third ray's window ends
 /// before the roof (the remembered leaf would stop the whole ray, not the
-/// window). Every kernel answers as the binary traversal.
+/// window). Two lights: one beyond the roof's edge, and one over the roof,
+/// so that the runs around the light's x mix the signs of their directions
+/// and their rays go alone under the roof, where they too test the runs'
+/// last occluder first (trace_alone()), some of them below a hole in it.
+/// Every kernel answers as the binary traversal.
 void test_shadow_runs_one_occluder(void **) {
     constexpr int kGround = 24, kRoof = 10;
     std::vector<float> v;
@@ -397,43 +401,56 @@ void test_shadow_runs_one_occluder(void **) {
     std::copy(v.begin(), v.end(), mesh.vertices);
     std::copy(idx.begin(), idx.end(), mesh.indices);
 
-    const float light[3] = {0.8f, 2.0f, 0.5f};
+    const float lights[2][3] = {{0.8f, 2.0f, 0.5f}, {0.3f, 2.0f, 0.5f}};
     constexpr int kSide = 64;
-    std::vector<aacbvh_ray> rays(size_t(kSide) * kSide);
-    for (int j = 0; j < kSide; ++j)
-        for (int i = 0; i < kSide; ++i) {
-            aacbvh_ray &r = rays[size_t(j) * kSide + i];
-            const float org[3] = {(i + 0.5f) / kSide, 1e-4f, (j + 0.5f) / kSide};
-            for (int a = 0; a < 3; ++a) {
-                r.org[a] = org[a];
-                r.dir[a] = light[a] - org[a];
+    for (const float *light : lights) {
+        std::vector<aacbvh_ray> rays(size_t(kSide) * kSide);
+        for (int j = 0; j < kSide; ++j)
+            for (int i = 0; i < kSide; ++i) {
+                aacbvh_ray &r = rays[size_t(j) * kSide + i];
+                const float org[3] = {(i + 0.5f) / kSide, 1e-4f, (j + 0.5f) / kSide};
+                for (int a = 0; a < 3; ++a) {
+                    r.org[a] = org[a];
+                    r.dir[a] = light[a] - org[a];
+                }
+                r.tmin = 0.0f;
+                r.tmax = (i + j) % 3 == 0 ? 0.2f : 0.9999f; // 0.2: ends below the roof (t = 0.25)
             }
-            r.tmin = 0.0f;
-            r.tmax = (i + j) % 3 == 0 ? 0.2f : 0.9999f; // 0.2: ends below the roof (t = 0.25)
+        // The runs that mix the signs of their directions (those around the
+        // light's x) lie under the roof when the light is over it.
+        size_t mixed_under_roof = 0;
+        for (size_t k = 0; k + 8 <= rays.size(); k += 8) {
+            bool mixed = false;
+            for (size_t m = k; m < k + 8; ++m)
+                for (int a = 0; a < 3; ++a) mixed |= (rays[m].dir[a] < 0.0f) != (rays[k].dir[a] < 0.0f);
+            if (mixed && rays[k].org[0] < 0.5f) mixed_under_roof += 8;
         }
-    for (uint32_t threads = kFirstThreads; threads <= 2; ++threads) {
-        aacbvh_context *ctx = nullptr;
-        TS_EXPECT_STATUS(aacbvh_context_create(threads, &ctx), AACBVH_OK);
-        aacbvh_bvh *ref = nullptr, *wide = nullptr;
-        make_built_pair(ctx, mesh, ref, wide);
-        std::vector<uint8_t> occluded(rays.size());
-        TS_EXPECT_STATUS(aacbvh_bvh_occluded(ref, rays.data(), occluded.data(), rays.size()), AACBVH_OK);
-        size_t stopped = 0, stopped_short = 0;
-        for (size_t k = 0; k < rays.size(); ++k) {
-            stopped += occluded[k];
-            stopped_short += occluded[k] && rays[k].tmax < 0.5f;
+        if (light[0] < 0.6f) assert_true(mixed_under_roof >= rays.size() / 16);
+        for (uint32_t threads = kFirstThreads; threads <= 2; ++threads) {
+            aacbvh_context *ctx = nullptr;
+            TS_EXPECT_STATUS(aacbvh_context_create(threads, &ctx), AACBVH_OK);
+            aacbvh_bvh *ref = nullptr, *wide = nullptr;
+            make_built_pair(ctx, mesh, ref, wide);
+            std::vector<uint8_t> occluded(rays.size());
+            TS_EXPECT_STATUS(aacbvh_bvh_occluded(ref, rays.data(), occluded.data(), rays.size()), AACBVH_OK);
+            size_t stopped = 0, stopped_short = 0;
+            for (size_t k = 0; k < rays.size(); ++k) {
+                stopped += occluded[k];
+                stopped_short += occluded[k] && rays[k].tmax < 0.5f;
+            }
+            // The scene does what it is for: most full rays under the roof are
+            // stopped, the open side and the holes let others through, and the
+            // short windows are stopped by clutter at most.
+            assert_true(stopped > rays.size() / 4 && stopped < rays.size() * 3 / 4);
+            assert_true(stopped_short < stopped / 3);
+            char what[96];
+            std::snprintf(what, sizeof what, "shadow runs under one roof, light at x = %.1f, %u threads",
+                          double(light[0]), threads);
+            assert_true(compare_kernels(ref, wide, rays.data(), rays.size(), what) >= 1);
+            aacbvh_bvh_destroy(ref);
+            aacbvh_bvh_destroy(wide);
+            aacbvh_context_destroy(ctx);
         }
-        // The scene does what it is for: most full rays under the roof are
-        // stopped, the open side and the holes let others through, and the
-        // short windows are stopped by clutter at most.
-        assert_true(stopped > rays.size() / 4 && stopped < rays.size() * 3 / 4);
-        assert_true(stopped_short < stopped / 3);
-        char what[96];
-        std::snprintf(what, sizeof what, "shadow runs under one roof, %u threads", threads);
-        assert_true(compare_kernels(ref, wide, rays.data(), rays.size(), what) >= 1);
-        aacbvh_bvh_destroy(ref);
-        aacbvh_bvh_destroy(wide);
-        aacbvh_context_destroy(ctx);
     }
     ts_mesh_free(&mesh);
 }
