@@ -12,11 +12,10 @@
 // it; the kernel is called only on CPUs that have its instruction set
 // (wide8_traversal.cpp).
 #include <cstring>
-#include <type_traits>
-#include <utility>
 
 #include "trace/child_order.h"
 #include "trace/hit_record.h"
+#include "trace/ray_box.h"
 #include "trace/ray_primitives.h"
 #include "trace/spill_stack.h"
 #include "trace/wide8_traversal.h"
@@ -571,22 +570,6 @@ void occluded_packet(const Wide8Bvh &wide, const aacbvh_ray *rays, uint8_t *out,
     }
 }
 
-/// Whether a ray may enter a box (six rows as LastOccluder's) within its
-/// window: a plain slab test in float, the exit let out a little. Only the
-/// filter of a shortcut (trace_alone()): a wrong answer costs one leaf test,
-/// or a walk the shortcut might have saved, and never changes a hit.
-inline bool may_enter(const float rows[6], const aacbvh_ray &ray) {
-    float enter = ray.tmin, exit = ray.tmax;
-    for (int a = 0; a < 3; ++a) {
-        const float inv = 1.0f / ray.dir[a];
-        float t0 = (rows[2 * a] - ray.org[a]) * inv, t1 = (rows[2 * a + 1] - ray.org[a]) * inv;
-        if (t0 > t1) std::swap(t0, t1);
-        enter = t0 > enter ? t0 : enter; // NaN (a zero direction on a plane) changes neither
-        exit = t1 < exit ? t1 : exit;
-    }
-    return enter <= exit * 1.0001f;
-}
-
 /// One run of eight rays traced together, or one ray alone, into closest
 /// hits or occlusion flags (1: occluded): trace_runs()'s two steps. Runs of
 /// occlusion queries share the last occluder found (LastOccluder).
@@ -605,18 +588,31 @@ inline void trace_one(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geom
     out = occluded_entry(wide, bvh, geometry, ray) ? 1 : 0;
 }
 
-/// The eight occlusion rays of a run that packet_eligible() does not take
-/// (their directions' signs differ: shadow rays around a light), one by
-/// one; each plain one whose window starts at 0 or later and that may enter
-/// the box of the runs' last occluder (LastOccluder) tests that leaf first,
-/// and where the leaf stops it, its walk is saved. Only a shortcut, as for
-/// the runs: any hit within the window is the answer. Out of line, so that
-/// the runs' loop keeps its code (docs/PERFORMANCE.md, row 295).
+/// The eight rays of a run that packet_eligible() does not take, one by one.
+inline void trace_alone(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry, const aacbvh_ray *rays,
+                        aacbvh_hit *hits, const LastOccluder &) {
+    for (int k = 0; k < kPacketRays; ++k) trace_one(wide, bvh, geometry, rays[k], hits[k]);
+}
+
+/// The same for occlusion rays (their directions' signs differ: shadow rays
+/// around a light): each plain one whose window starts at 0 or later and
+/// whose node test (ray_box_conservative()) lets it into the box of the
+/// runs' last occluder (LastOccluder) tests that leaf first, and where the
+/// leaf stops it, its walk is saved. Only a shortcut, as for the runs: any
+/// hit within the window is the answer. Out of line, so that the runs' loop
+/// keeps its code (docs/PERFORMANCE.md, row 295).
 [[gnu::noinline]] void trace_alone(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geometry,
                                    const aacbvh_ray *rays, uint8_t *out, const LastOccluder &last) {
+    Box box;
+    for (int a = 0; a < 3; ++a) {
+        box.lo[a] = last.rows[2 * a];
+        box.hi[a] = last.rows[2 * a + 1];
+    }
     for (int k = 0; k < kPacketRays; ++k) {
         const aacbvh_ray &ray = rays[k];
-        if (last.count != 0 && ray_is_plain(ray) && ray.tmin >= 0.0f && may_enter(last.rows, ray)) {
+        float entry;
+        if (last.count != 0 && ray_is_plain(ray) && ray.tmin >= 0.0f &&
+            ray_box_conservative(make_box_ray(ray.org, ray.dir), box, ray.tmin, ray.tmax, entry)) {
             const TriangleRay tray = make_triangle_ray(ray.org, ray.dir);
             HitRecord<true> best(ray.tmax);
             if (test_packets<true>(wide.packets() + last.first, last.count, tray, make_packet_ray(tray), ray.tmin,
@@ -631,8 +627,8 @@ inline void trace_one(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geom
 
 /// The batch entry points over rays[0, count) into out[0, count): each run
 /// of eight rays that packet_eligible() takes is traced together
-/// (intersect_packet() or occluded_packet()), every other ray alone (the
-/// occlusion rays of the runs it does not take through trace_alone()). Runs
+/// (intersect_packet() or occluded_packet()), every other ray alone
+/// (trace_alone(), trace_one()). Runs
 /// start at the batch's first ray (a batch call's chunks are multiples of
 /// eight).
 template <class Out>
@@ -647,10 +643,7 @@ inline void trace_runs(const Wide8Bvh &wide, const Bvh &bvh, const Geometry &geo
                 trace_run(wide, rays + i, out + i, last);
                 continue;
             }
-            if constexpr (std::is_same<Out, uint8_t>::value)
-                trace_alone(wide, bvh, geometry, rays + i, out + i, last);
-            else
-                for (size_t k = i; k < i + kPacketRays; ++k) trace_one(wide, bvh, geometry, rays[k], out[k]);
+            trace_alone(wide, bvh, geometry, rays + i, out + i, last);
         }
     for (; i < count; ++i) trace_one(wide, bvh, geometry, rays[i], out[i]);
 }
