@@ -697,7 +697,9 @@ inline unsigned packet_plane_distances(const TrianglePacket &p, const TriangleRa
         const __m256d x = _mm256_sub_pd(_mm256_mul_pd(t, d[a]), w[a]);
         const __m256d lo = _mm256_min_pd(_mm256_min_pd(e1[a], e2[a]), zero);
         const __m256d hi = _mm256_max_pd(_mm256_max_pd(e1[a], e2[a]), zero);
-        const __m256d within = _mm256_and_pd(_mm256_cmp_pd(x, lo, _CMP_GE_OQ), _mm256_cmp_pd(x, hi, _CMP_LE_OQ));
+        const __m256d flat = _mm256_and_pd(_mm256_cmp_pd(e1[a], zero, _CMP_EQ_OQ), _mm256_cmp_pd(e2[a], zero, _CMP_EQ_OQ));
+        const __m256d within =
+            _mm256_or_pd(_mm256_and_pd(_mm256_cmp_pd(x, lo, _CMP_GE_OQ), _mm256_cmp_pd(x, hi, _CMP_LE_OQ)), flat);
         inside = _mm256_and_pd(inside, within);
     }
     return unsigned(_mm256_movemask_pd(inside));
