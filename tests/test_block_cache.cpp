@@ -309,34 +309,46 @@ bool same_tree(const aacbvh::Bvh &a, const aacbvh::Bvh &b) {
 /// Out of memory at each build allocation in turn, with blocks kept: the
 /// failed build leaves the tree as it was, the kept memory stays bounded, and
 /// the next build (from kept blocks) makes the tree a fresh build makes.
+/// The handle alternates between two soups, so that each step is the failing
+/// build and the rebuild that follows it: the tree before the failure is the
+/// one the step before rebuilt, a fresh build's (builds are deterministic,
+/// and every rebuild is checked against one).
 void test_failures_with_kept_memory(void **) {
     aacbvh::Scheduler scheduler(1);
-    aacbvh::BvhObject object(scheduler), fresh(scheduler);
+    aacbvh::BvhObject object(scheduler);
     // 100 K triangles: arrays of 2 MiB and more, the ones kept.
     const std::vector<float> vertices = random_soup(100000, 5), offsets = random_soup(100000, 6);
     std::vector<float> moved(vertices.size());
     for (size_t i = 0; i < moved.size(); ++i) moved[i] = vertices[i] + 0.05f * offsets[i];
-    set_soup(fresh, moved);
+    const std::vector<float> *soups[2] = {&vertices, &moved};
+    aacbvh::Bvh fresh[2];
+    for (int s = 0; s < 2; ++s) {
+        aacbvh::BvhObject f(scheduler);
+        set_soup(f, *soups[s]);
+        f.set_param_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_FAST);
+        f.build();
+        const aacbvh::Bvh tree = f.binary_tree();
+        fresh[s] = aacbvh::Bvh{aacbvh::Array<aacbvh::Node>(tree.nodes), aacbvh::Array<uint32_t>(tree.prim_ids)};
+    }
     object.set_param_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_FAST);
-    fresh.set_param_int(AACBVH_PARAM_BUILDER, AACBVH_BUILDER_AAC_FAST);
-    fresh.build();
     object.set_param_int(AACBVH_PARAM_KEEP_BUILD_MEMORY, 1);
+    set_soup(object, vertices);
+    object.build();
+    object.build();
+    int built = 0; // the soup of the handle's tree
 
-    // Every allocation in turn (the build makes about 47); under
+    // Every allocation in turn (a build makes about 330); under
     // ThreadSanitizer every 16th, an early, a middle and a late one (this test
-    // runs one thread, so there is no race for it to find, and each step is
-    // four builds of 100 K triangles: 3 s there).
+    // runs one thread, so there is no race for it to find).
     const int64_t stride = TS_UNDER_TSAN ? 16 : 1;
     int64_t k = 1;
     for (;; k += stride) {
-        set_soup(object, vertices);
-        object.build();
-        object.build();
-        const aacbvh::Bvh before = aacbvh::Bvh{aacbvh::Array<aacbvh::Node>(object.binary_tree().nodes),
-                                               aacbvh::Array<uint32_t>(object.binary_tree().prim_ids)};
+        if (!same_tree(object.binary_tree(), fresh[built]))
+            fail_msg("before allocation %lld failing, the tree is not the fresh build's", (long long)k);
         const size_t kept = object.kept_build_bytes();
         assert_true(kept > 0); // the failures below hit a build that reuses blocks
-        set_soup(object, moved);
+        const int next = 1 - built;
+        set_soup(object, *soups[next]);
         aacbvh::testing::alloc_fail_countdown.store(k);
         bool failed = false;
         try {
@@ -349,7 +361,8 @@ void test_failures_with_kept_memory(void **) {
         }
         const bool reached = aacbvh::testing::alloc_fail_countdown.exchange(0) == 0;
         if (failed) {
-            if (!same_tree(object.binary_tree(), before)) fail_msg("allocation %lld failing changed the tree", (long long)k);
+            if (!same_tree(object.binary_tree(), fresh[built]))
+                fail_msg("allocation %lld failing changed the tree", (long long)k);
             if (object.kept_build_bytes() > kept + object.binary_tree().memory_bytes() + 8 * aacbvh::kHugePageBytes)
                 fail_msg("allocation %lld failing: %zu bytes kept, %zu before", (long long)k,
                          object.kept_build_bytes(), kept);
@@ -357,7 +370,8 @@ void test_failures_with_kept_memory(void **) {
         } else {
             assert_false(reached); // a build that reached its failure must fail
         }
-        if (!same_tree(object.binary_tree(), fresh.binary_tree()))
+        built = next;
+        if (!same_tree(object.binary_tree(), fresh[built]))
             fail_msg("after allocation %lld failing, the rebuild differs from a fresh build", (long long)k);
         if (!failed) break;
     }
