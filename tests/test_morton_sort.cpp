@@ -243,8 +243,8 @@ void test_sort_by_high_halves(void **) {
 /// keys (all below 2^key_bits): key widths of one to five digits and beyond
 /// (the counts of every pass from one read, then a read a pass), few
 /// distinct keys (stability decides), keys that agree on whole digits (the
-/// top one included), sizes that give one chunk and several, one thread
-/// and three.
+/// top one included), sizes up to 70,000 (one chunk: several chunks are
+/// test_radix_sort_pairs_in_chunks()'s), one thread and three.
 void test_radix_sort_pairs(void **) {
     std::mt19937_64 rng(5);
     for (size_t n : {size_t(0), size_t(1), size_t(2), size_t(1000), size_t(70000)}) {
@@ -297,6 +297,36 @@ void test_radix_sort_pairs(void **) {
     }
 }
 
+/// The sort in several chunks, which only arrays of at least 2^18 pairs get
+/// (fewer are sorted on the calling thread, build/radix_sort.cpp): random
+/// keys and keys of few values (stability decides), 32 and 64 key bits,
+/// against std::stable_sort, on two and three threads.
+void test_radix_sort_pairs_in_chunks(void **) {
+    std::mt19937_64 rng(11);
+    const size_t n = (size_t(1) << 18) + 12345;
+    for (unsigned key_bits : {32u, 64u}) {
+        for (int pattern = 0; pattern < 2; ++pattern) {
+            const uint64_t mask = key_bits == 64 ? ~uint64_t(0) : (uint64_t(1) << key_bits) - 1;
+            aacbvh::Array<uint64_t> keys(n);
+            for (size_t i = 0; i < n; ++i) keys[i] = (pattern == 0 ? rng() : rng() % 5 << (key_bits - 3)) & mask;
+            std::vector<uint32_t> want(n);
+            for (size_t i = 0; i < n; ++i) want[i] = uint32_t(i);
+            std::stable_sort(want.begin(), want.end(), [&](uint32_t a, uint32_t b) { return keys[a] < keys[b]; });
+            for (unsigned threads : {2u, 3u}) {
+                aacbvh::Scheduler scheduler(threads);
+                aacbvh::Array<uint64_t> sorted(keys);
+                aacbvh::Array<uint32_t> values(n);
+                for (size_t i = 0; i < n; ++i) values[i] = uint32_t(i);
+                aacbvh::radix_sort_pairs(sorted, values, key_bits, scheduler);
+                for (size_t i = 0; i < n; ++i)
+                    if (values[i] != want[i] || sorted[i] != keys[want[i]])
+                        fail_msg("%u bits, pattern %d, %u threads: entry %zu is %u, expected %u", key_bits, pattern,
+                                 threads, i, values[i], want[i]);
+            }
+        }
+    }
+}
+
 /// Every code equal: the input order.
 void test_all_equal(void **) {
     std::vector<Box> boxes(5000, point_box(3.0f, 3.0f, 3.0f));
@@ -315,6 +345,7 @@ int main() {
         cmocka_unit_test(test_many_long_runs),
         cmocka_unit_test(test_sort_by_high_halves),
         cmocka_unit_test(test_radix_sort_pairs),
+        cmocka_unit_test(test_radix_sort_pairs_in_chunks),
     };
     return cmocka_run_group_tests(tests, nullptr, nullptr);
 }

@@ -14,6 +14,13 @@ namespace {
 constexpr unsigned kDigitBits = 8;
 constexpr size_t kBuckets = size_t(1) << kDigitBits;
 constexpr size_t kMinChunk = 1u << 14;
+/// Fewer pairs than this are sorted on the calling thread whatever the
+/// thread count: each pass's parallel count and scatter cost more in
+/// hand-offs and in lines moved between the cores than they save (at two
+/// threads the sort phase of sponza's build took 1.79 ms against 1.37 on
+/// one, and the builds of the scenes below this size ran 1-3.5 % faster
+/// alone; docs/PERFORMANCE.md, row 300).
+constexpr size_t kAloneBelow = size_t(1) << 18;
 
 } // namespace
 
@@ -26,8 +33,8 @@ bool sort_pairs(Key *keys, Value *values, Key *keys_tmp, Value *values_tmp, size
     // Each chunk counts and scatters its own slice; the scatter of chunk c
     // starts where chunks 0..c-1 of the same digit end, so the sort is stable
     // and its result independent of the chunk count.
-    // One thread sorts in one chunk.
-    const size_t chunks = scheduler.thread_count() == 1
+    // One thread, or fewer than kAloneBelow pairs, sort in one chunk.
+    const size_t chunks = scheduler.thread_count() == 1 || n < kAloneBelow
                               ? 1
                               : std::max<size_t>(1, std::min<size_t>(scheduler.thread_count() * 4, n / kMinChunk));
     const size_t chunk_size = (n + chunks - 1) / chunks;
