@@ -105,8 +105,11 @@ public:
 
 private:
     /// Work on both sides of a node forks into parallel tasks where each
-    /// side holds this many elements (sub-trees below the cut) or more.
-    static constexpr uint32_t kForkMin = 1024;
+    /// side holds this many elements (sub-trees below the cut) or more. At
+    /// 1,024 the bunny's top (about 2,000 sub-trees) was split on one thread
+    /// only; 256 made two-thread AAC-HQ builds of the small scenes 1-4 %
+    /// faster (docs/PERFORMANCE.md, row 301).
+    static constexpr uint32_t kForkMin = 256;
 
     template <class... Arrays> static void release(Arrays &...arrays) { (std::decay_t<Arrays>().swap(arrays), ...); }
 
