@@ -18,7 +18,7 @@ constexpr size_t kMinChunk = 1u << 14;
 /// thread count: each pass's parallel count and scatter cost more in
 /// hand-offs and in lines moved between the cores than they save (at two
 /// threads the sort phase of sponza's build took 1.79 ms against 1.37 on
-/// one, and the builds of the scenes below this size ran 1-3.5 % faster
+/// one, and the builds of the scenes below this size ran 0.2-3.5 % faster
 /// alone; docs/PERFORMANCE.md, row 300).
 constexpr size_t kAloneBelow = size_t(1) << 18;
 
