@@ -107,7 +107,7 @@ private:
     /// Work on both sides of a node forks into parallel tasks where each
     /// side holds this many elements (sub-trees below the cut) or more. At
     /// 1,024 the bunny's top (about 2,000 sub-trees) was split on one thread
-    /// only; 256 made two-thread AAC-HQ builds of the small scenes 1-4 %
+    /// only; 256 made two-thread AAC-HQ builds of the bunny 2.7-4.8 %
     /// faster (docs/PERFORMANCE.md, row 301).
     static constexpr uint32_t kForkMin = 256;
 
